@@ -1,0 +1,545 @@
+"""gmsh meshes of a silo outline: quadrilaterals in the (r, z) half-plane, tagged and distributed.
+
+Two strategies, chosen by ``[geometry] mesh``:
+
+``structured`` (default)
+    The fill is cut into horizontal bands at every wall vertex, at the fill height, and where
+    the requested size stops grading (refinement distance around the outlet edge and the
+    transition). Each band is a transfinite quadrilateral block between the axis and one
+    wall piece, so wall corners and fillet ends are mesh nodes and every band boundary is a
+    mesh line. A flat floor adds a vertical block boundary above the outlet edge, so the
+    outlet has its own column of cells. This is the layout of the thesis' meshes (Fig. 4-2).
+
+``unstructured``
+    One surface bounded by the axis, outlet, wall and top, meshed by gmsh's frontal-Delaunay
+    quadrilateral algorithm with blossom full-quad recombination and a size field (distance
+    thresholds around the outlet edge and the transition). Works for any wall, including
+    ledges.
+
+Tags (physical groups, names and numbers): cells ``material`` = 1; facets ``wall`` = 1,
+``outlet`` = 2, ``top`` = 3, ``axis`` = 4. The mesh is built on rank 0 and distributed by
+:func:`dolfinx.io.gmsh.model_to_mesh`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from silo_dolfinx.geometry.shapes import Outline
+from silo_dolfinx.geometry.wall import Arc, Segment
+
+MATERIAL = 1
+WALL, OUTLET, TOP, AXIS = 1, 2, 3, 4
+FACET_TAGS = {"wall": WALL, "outlet": OUTLET, "top": TOP, "axis": AXIS}
+
+
+class MeshingError(ValueError):
+    """The geometry cannot be meshed as asked (names the key to change)."""
+
+
+@dataclass(frozen=True)
+class MeshOptions:
+    element_size: float
+    outlet_size_factor: float = 1.0
+    transition_size_factor: float = 1.0
+    refinement_distance: float = 1.0
+    structured: bool = True
+    max_aspect_ratio: float = 2.0
+
+    @classmethod
+    def from_geometry(cls, g) -> MeshOptions:
+        return cls(g["element_size"], g["outlet_size_factor"], g["transition_size_factor"],
+                   g["refinement_distance"], g["mesh"] == "structured", g["max_aspect_ratio"])
+
+    def refinement_points(self, outline: Outline) -> list[tuple[float, float, float]]:
+        """(r, z, size) of the points around which the mesh is refined."""
+        h = self.element_size
+        pts = []
+        if self.outlet_size_factor < 1.0:
+            pts.append((outline.outlet_radius, 0.0, self.outlet_size_factor * h))
+        if self.transition_size_factor < 1.0:
+            pts += [(r, z, self.transition_size_factor * h) for r, z in outline.transition_points
+                    if z <= outline.fill_height]
+        return pts
+
+    def radial_divisions(self, outline: Outline) -> int:
+        """Cells across the silo in a structured mesh (without a floor)."""
+        return max(2, math.ceil(outline.r_max / self.element_size - 1e-9))
+
+    def size_branches(self, outline: Outline, z: np.ndarray) -> np.ndarray:
+        """Candidate vertical sizes at heights z, (branches, len(z)); the size is their minimum.
+
+        Branches: the element size; a linear ramp from each refinement height; and, in
+        structured meshes, max_aspect_ratio × the local radial cell size r_wall(z)/n_r, so
+        cells in a narrowing hopper do not become needles at the outlet.
+        """
+        z = np.atleast_1d(np.asarray(z, float))
+        rows = [np.full_like(z, self.element_size)]
+        for _, zk, hk in self.refinement_points(outline):
+            rows.append(hk + (self.element_size - hk) * np.abs(z - zk) / self.refinement_distance)
+        if self.structured:
+            rw = outline.wall.radius_at(np.maximum(z, 1e-12 * outline.fill_height))
+            rows.append(self.max_aspect_ratio * rw / self.radial_divisions(outline))
+        return np.array(rows)
+
+    def size_along_z(self, outline: Outline, z) -> np.ndarray:
+        return self.size_branches(outline, z).min(axis=0)
+
+
+# ---------------------------------------------------------------------------- gmsh model
+def build_model(outline: Outline, opts: MeshOptions, name: str = "silo") -> None:
+    """Create and mesh the silo in the current gmsh session (gmsh must be initialised)."""
+    import gmsh
+
+    gmsh.option.setNumber("General.Terminal", 0)
+    if opts.structured:
+        gmsh.model.add(name)
+        _structured(outline, opts)
+        gmsh.model.mesh.generate(2)
+    else:
+        # Blossom full-quad gives the best cells but needs an even edge count on every curve;
+        # plain blossom may leave a triangle; subdivision (at twice the size) never does.
+        attempts = ({"Mesh.RecombinationAlgorithm": 3, "Mesh.SubdivisionAlgorithm": 0}, 1.0), \
+                   ({"Mesh.RecombinationAlgorithm": 1, "Mesh.SubdivisionAlgorithm": 0}, 1.0), \
+                   ({"Mesh.RecombinationAlgorithm": 1, "Mesh.SubdivisionAlgorithm": 1}, 2.0)
+        for options, scale in attempts:
+            gmsh.model.add(name)
+            _unstructured(outline, opts, scale)
+            for k, v in options.items():
+                gmsh.option.setNumber(k, v)
+            try:
+                gmsh.model.mesh.generate(2)
+                if all(t == 3 for t in gmsh.model.mesh.getElementTypes(2)):
+                    break
+            except Exception:  # noqa: BLE001 - gmsh raises bare Exception; try the next way
+                pass
+            gmsh.model.remove()
+    gmsh.model.mesh.setOrder(1)
+    if any(t != 3 for t in gmsh.model.mesh.getElementTypes(2)):  # 3 = 4-node quadrilateral
+        raise MeshingError("gmsh left non-quadrilateral cells; try [geometry] mesh = \"structured\" or a "
+                           "smaller element_size.")
+
+
+def _wall_pieces_between(outline: Outline, za: float, zb: float):
+    """The wall pieces (clipped) spanning heights [za, zb] on the rising part of the wall."""
+    wall = outline.wall
+    sa, sb = wall.s_at_height([za, zb])
+    out = []
+    for i, p in enumerate(wall.pieces):
+        s0 = wall._s0[i]
+        s1 = s0 + p.length
+        if p.end[1] <= p.start[1]:
+            continue  # floor
+        lo, hi = max(s0, sa), min(s1, sb)
+        if hi - lo > 1e-12 * max(1.0, wall.length):
+            out.append((p, lo, hi))
+    return out
+
+
+def _band_heights(outline: Outline, opts: MeshOptions) -> list[float]:
+    """Band boundaries: wall vertices, fill height, and the ends of every size ramp."""
+    hf = outline.fill_height
+    zs = {0.0, hf}
+    for p in outline.wall.pieces:
+        if p.end[1] > p.start[1]:
+            zs |= {p.start[1], p.end[1]}
+    rho = opts.refinement_distance
+    ramps = [zk for _, zk, _ in opts.refinement_points(outline)]
+    for zk in ramps:
+        zs |= {zk, zk - rho, zk + rho}
+    for a in ramps:  # where two ramps meet (a local maximum of the size)
+        for b in ramps:
+            if a < b and b - a < 2 * rho:
+                zs.add(0.5 * (a + b))
+    # Where the governing size rule changes, so each band's size is one linear branch.
+    zz = np.linspace(0.0, hf, 4001)
+    which = opts.size_branches(outline, zz).argmin(axis=0)
+    for i in np.nonzero(np.diff(which))[0]:
+        lo, hi = zz[i], zz[i + 1]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if opts.size_branches(outline, mid).argmin(axis=0)[0] == which[i]:
+                lo = mid
+            else:
+                hi = mid
+        zs.add(0.5 * (lo + hi))
+    zs = sorted(z for z in zs if 0.0 <= z <= hf)
+    merged = [zs[0]]
+    tol = 1e-3 * opts.element_size * min(1.0, min(opts.outlet_size_factor, opts.transition_size_factor))
+    for z in zs[1:]:
+        if z - merged[-1] > tol:
+            merged.append(z)
+        else:
+            merged[-1] = z if z in (hf,) else merged[-1]
+    return merged
+
+
+def _progression(length: float, ha: float, hb: float) -> tuple[int, float]:
+    """Number of elements and gmsh progression ratio for sizes ha -> hb over length."""
+    if abs(hb - ha) < 1e-9 * max(ha, hb):
+        n = max(1, round(length / ha))
+        return n, 1.0
+    integral = length * math.log(hb / ha) / (hb - ha)  # ∫ dz / h(z) for linear h
+    n = max(1, round(integral))
+    q = (hb / ha) ** (1.0 / (n - 1)) if n > 1 else 1.0
+    return n, q
+
+
+def _structured(outline: Outline, opts: MeshOptions) -> None:
+    import gmsh
+
+    geo = gmsh.model.geo
+    h = opts.element_size
+    for p in outline.wall.pieces:
+        if p.end[1] == p.start[1] and p.start[1] > 0.0:
+            raise MeshingError("[geometry] mesh = \"structured\" needs a wall that rises in every piece "
+                               f"above the floor; the piece {p.start} -> {p.end} is horizontal. Fix: "
+                               "mesh = \"unstructured\".")
+    zs = _band_heights(outline, opts)
+    rf = outline.floor_radius
+    has_floor = outline.outlet_radius < rf - 1e-12
+    xi_o = outline.outlet_radius / rf  # fraction of each row inside the outlet column
+
+    # Radial divisions. Without a floor all rows have n_r cells; with one, the outlet column
+    # gets n_in and the rest n_out, graded towards the outlet edge.
+    rmax = outline.r_max
+    if has_floor:
+        h_edge = h * opts.outlet_size_factor
+        # Enough cells for the widest row too (a wall that widens above the floor).
+        n_in = max(1, math.ceil(outline.outlet_radius / h_edge - 1e-9), math.ceil(xi_o * rmax / h - 1e-9))
+        n_out, q_out = _progression(rf - outline.outlet_radius, h_edge, h)
+        n_top = math.ceil((1.0 - xi_o) * rmax / h - 1e-9)
+        if n_top > n_out:
+            n_out, q_out = n_top, 1.0
+    else:
+        n_r = opts.radial_divisions(outline)
+
+    axis_pts, split_pts, wall_pts = [], [], []
+    center_tags: dict[tuple[float, float], int] = {}
+    for z in zs:
+        rw = float(outline.wall.radius_at(z)[0]) if z > 0.0 else rf
+        axis_pts.append(geo.addPoint(0.0, z, 0.0))
+        split_pts.append(geo.addPoint(xi_o * rw, z, 0.0) if has_floor else None)
+        wall_pts.append(geo.addPoint(rw, z, 0.0))
+    # horizontal lines (bottom row: outlet [+ floor])
+    horiz_in, horiz_out = [], []
+    for k in range(len(zs)):
+        if has_floor:
+            horiz_in.append(geo.addLine(axis_pts[k], split_pts[k]))
+            horiz_out.append(geo.addLine(split_pts[k], wall_pts[k]))
+        else:
+            horiz_in.append(geo.addLine(axis_pts[k], wall_pts[k]))
+    axis_lines, split_lines, wall_lines, surfaces = [], [], [], []
+    for k in range(len(zs) - 1):
+        za, zb = zs[k], zs[k + 1]
+        ha, hb = opts.size_along_z(outline, [za, zb])
+        n_z, q_z = _progression(zb - za, float(ha), float(hb))
+        a_line = geo.addLine(axis_pts[k], axis_pts[k + 1])
+        pieces = _wall_pieces_between(outline, za, zb)
+        if len(pieces) != 1:
+            raise MeshingError(f"band {za:g}..{zb:g} m does not hold exactly one wall piece")
+        piece = pieces[0][0]
+        if isinstance(piece, Segment):
+            w_line = geo.addLine(wall_pts[k], wall_pts[k + 1])
+        else:
+            c = piece.center
+            if c not in center_tags:
+                center_tags[c] = geo.addPoint(c[0], c[1], 0.0)
+            w_line = geo.addCircleArc(wall_pts[k], center_tags[c], wall_pts[k + 1])
+        axis_lines.append(a_line)
+        wall_lines.append(w_line)
+        for ln in (a_line, w_line):
+            geo.mesh.setTransfiniteCurve(ln, n_z + 1, "Progression", q_z)
+        if has_floor:
+            s_line = geo.addLine(split_pts[k], split_pts[k + 1])
+            split_lines.append(s_line)
+            geo.mesh.setTransfiniteCurve(s_line, n_z + 1, "Progression", q_z)
+            loop_in = geo.addCurveLoop([horiz_in[k], s_line, -horiz_in[k + 1], -a_line])
+            loop_out = geo.addCurveLoop([horiz_out[k], w_line, -horiz_out[k + 1], -s_line])
+            surfaces += [geo.addPlaneSurface([loop_in]), geo.addPlaneSurface([loop_out])]
+        else:
+            loop = geo.addCurveLoop([horiz_in[k], w_line, -horiz_in[k + 1], -a_line])
+            surfaces.append(geo.addPlaneSurface([loop]))
+    for k in range(len(zs)):
+        if has_floor:
+            geo.mesh.setTransfiniteCurve(horiz_in[k], n_in + 1)
+            geo.mesh.setTransfiniteCurve(horiz_out[k], n_out + 1, "Progression", q_out)
+        else:
+            geo.mesh.setTransfiniteCurve(horiz_in[k], n_r + 1)
+    for s in surfaces:
+        geo.mesh.setTransfiniteSurface(s)
+        geo.mesh.setRecombine(2, s)
+    geo.synchronize()
+    wall_curves = list(wall_lines) + ([horiz_out[0]] if has_floor else [])
+    gmsh.model.addPhysicalGroup(2, surfaces, MATERIAL, "material")
+    gmsh.model.addPhysicalGroup(1, wall_curves, WALL, "wall")
+    gmsh.model.addPhysicalGroup(1, [horiz_in[0]], OUTLET, "outlet")
+    gmsh.model.addPhysicalGroup(1, [horiz_in[-1]] + ([horiz_out[-1]] if has_floor else []), TOP, "top")
+    gmsh.model.addPhysicalGroup(1, axis_lines, AXIS, "axis")
+
+
+def _unstructured(outline: Outline, opts: MeshOptions, scale: float = 1.0) -> None:
+    import gmsh
+
+    geo = gmsh.model.geo
+    hf = outline.fill_height
+    h = opts.element_size * scale
+    p_axis0 = geo.addPoint(0.0, 0.0, 0.0)
+    p_out = geo.addPoint(outline.outlet_radius, 0.0, 0.0)
+    wall_curves = []
+    prev = p_out
+    s_top = outline.wall_length_below_fill
+    wall = outline.wall
+    for i, p in enumerate(wall.pieces):
+        s0 = wall._s0[i]
+        if s0 >= s_top - 1e-12:
+            break
+        s1 = min(s0 + p.length, s_top)
+        end_xy = wall.point_at(s1)[0]
+        nxt = geo.addPoint(float(end_xy[0]), float(end_xy[1]), 0.0)
+        if isinstance(p, Segment):
+            wall_curves.append(geo.addLine(prev, nxt))
+        else:
+            c = geo.addPoint(p.center[0], p.center[1], 0.0)
+            wall_curves.append(geo.addCircleArc(prev, c, nxt))
+        prev = nxt
+    p_axis1 = geo.addPoint(0.0, hf, 0.0)
+    outlet = geo.addLine(p_axis0, p_out)
+    top = geo.addLine(prev, p_axis1)
+    axis = geo.addLine(p_axis1, p_axis0)
+    loop = geo.addCurveLoop([outlet, *wall_curves, top, axis])
+    surf = geo.addPlaneSurface([loop])
+    geo.synchronize()
+    fields = []
+    for r, z, hk in opts.refinement_points(outline):
+        pt = gmsh.model.geo.addPoint(r, z, 0.0)
+        gmsh.model.geo.synchronize()
+        d = gmsh.model.mesh.field.add("Distance")
+        gmsh.model.mesh.field.setNumbers(d, "PointsList", [pt])
+        t = gmsh.model.mesh.field.add("Threshold")
+        gmsh.model.mesh.field.setNumber(t, "InField", d)
+        gmsh.model.mesh.field.setNumber(t, "SizeMin", hk * scale)
+        gmsh.model.mesh.field.setNumber(t, "SizeMax", h)
+        gmsh.model.mesh.field.setNumber(t, "DistMin", 0.0)
+        gmsh.model.mesh.field.setNumber(t, "DistMax", opts.refinement_distance)
+        fields.append(t)
+    const = gmsh.model.mesh.field.add("MathEval")
+    gmsh.model.mesh.field.setString(const, "F", repr(h))
+    fields.append(const)
+    fmin = gmsh.model.mesh.field.add("Min")
+    gmsh.model.mesh.field.setNumbers(fmin, "FieldsList", fields)
+    gmsh.model.mesh.field.setAsBackgroundMesh(fmin)
+    for k, v in {"Mesh.MeshSizeExtendFromBoundary": 0, "Mesh.MeshSizeFromPoints": 0,
+                 "Mesh.MeshSizeFromCurvature": 0, "Mesh.Algorithm": 8, "Mesh.RecombineAll": 1,
+                 "Mesh.Smoothing": 10}.items():
+        gmsh.option.setNumber(k, v)
+    gmsh.model.mesh.setRecombine(2, surf)
+    gmsh.model.addPhysicalGroup(2, [surf], MATERIAL, "material")
+    gmsh.model.addPhysicalGroup(1, wall_curves, WALL, "wall")
+    gmsh.model.addPhysicalGroup(1, [outlet], OUTLET, "outlet")
+    gmsh.model.addPhysicalGroup(1, [top], TOP, "top")
+    gmsh.model.addPhysicalGroup(1, [axis], AXIS, "axis")
+
+
+# ---------------------------------------------------------------------------- dolfinx
+@dataclass
+class SiloMesh:
+    """A distributed silo mesh with its tags and the exact geometry it discretises."""
+
+    mesh: object  # dolfinx.mesh.Mesh
+    cell_tags: object
+    facet_tags: object
+    outline: Outline
+
+    @property
+    def comm(self):
+        return self.mesh.comm
+
+    def num_cells_global(self) -> int:
+        im = self.mesh.topology.index_map(2)
+        return im.size_global
+
+    def volume_of_revolution(self) -> float:
+        """2π ∫ r dA over the mesh (current coordinates)."""
+        import ufl
+        from dolfinx import fem
+
+        x = ufl.SpatialCoordinate(self.mesh)
+        form = fem.form(2 * math.pi * x[0] * ufl.dx(domain=self.mesh))
+        return self.comm.allreduce(fem.assemble_scalar(form), op=_mpi_sum())
+
+    def facets(self, name: str) -> np.ndarray:
+        """Local indices of the facets tagged ``name`` (wall, outlet, top, axis)."""
+        return self.facet_tags.find(FACET_TAGS[name])
+
+    def nodes_on(self, name: str) -> np.ndarray:
+        """Local geometry-node indices on the facets tagged ``name`` (owned and ghost)."""
+        from dolfinx import mesh as dmesh
+
+        m = self.mesh
+        m.topology.create_connectivity(1, 0)
+        verts = dmesh.compute_incident_entities(m.topology, self.facets(name), 1, 0)
+        return _vertex_to_node(m, verts)
+
+
+def _vertex_to_node(m, verts: np.ndarray) -> np.ndarray:
+    """Map topology vertices to geometry nodes (Q1: one node per vertex)."""
+    from dolfinx import mesh as dmesh
+
+    m.topology.create_connectivity(0, m.topology.dim)
+    return np.unique(dmesh.entities_to_geometry(m, 0, np.asarray(verts, np.int32)).ravel())
+
+
+def _mpi_sum():
+    from mpi4py import MPI
+
+    return MPI.SUM
+
+
+def create_mesh(outline: Outline, opts: MeshOptions, comm, *, msh_path: str | Path | None = None,
+                rank: int = 0) -> SiloMesh:
+    """Mesh the silo with gmsh on ``rank`` and distribute it over ``comm``."""
+    import gmsh
+    from dolfinx.io import gmsh as dgmsh
+
+    error = None
+    if comm.rank == rank:
+        started = gmsh.is_initialized()
+        if not started:
+            gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        try:
+            build_model(outline, opts)
+            if msh_path is not None:
+                Path(msh_path).parent.mkdir(parents=True, exist_ok=True)
+                gmsh.write(str(msh_path))
+        except Exception as e:  # broadcast so no rank waits forever
+            error = e
+    error = comm.bcast(error, root=rank)
+    if error is not None:
+        if comm.rank == rank and not started:
+            gmsh.finalize()
+        raise error
+    data = dgmsh.model_to_mesh(gmsh.model, comm, rank, gdim=2)
+    if comm.rank == rank:
+        gmsh.model.remove()
+        if not started:
+            gmsh.finalize()
+    sm = SiloMesh(data.mesh, data.cell_tags, data.facet_tags, outline)
+    return sm
+
+
+def read_mesh(path: str | Path, outline: Outline, comm, *, rank: int = 0) -> SiloMesh:
+    """Read a user's gmsh mesh and check that it is a silo that fits ``outline``."""
+    from dolfinx import mesh as dmesh
+    from dolfinx.io import gmsh as dgmsh
+
+    path = Path(path)
+    if not path.is_file():
+        raise MeshingError(f"[geometry] mesh_file = {str(path)!r}: file not found. Fix: check the path, "
+                           "or remove mesh_file to mesh the geometry with gmsh.")
+    data = dgmsh.read_from_msh(str(path), comm, rank, gdim=2)
+    m = data.mesh
+    if m.topology.cell_type != dmesh.CellType.quadrilateral:
+        raise MeshingError(f"[geometry] mesh_file = {path.name!r}: cells are {m.topology.cell_type.name}, "
+                           "not quadrilaterals. Fix: recombine the mesh in gmsh (Mesh.RecombineAll = 1).")
+    groups = data.physical_groups
+    missing = [n for n in ("material", *FACET_TAGS) if n not in groups]
+    if missing:
+        raise MeshingError(f"[geometry] mesh_file = {path.name!r}: physical groups {missing} are missing "
+                           "(needed: material, wall, outlet, top, axis). Fix: add them in the gmsh script "
+                           "(see meshes/*.py).")
+    # Re-number facet tags to our convention, by physical name.
+    ft = data.facet_tags
+    idx, val = [], []
+    for name, tag in FACET_TAGS.items():
+        f = ft.find(groups[name].tag)
+        idx.append(f)
+        val.append(np.full(f.size, tag, np.int32))
+    idx = np.concatenate(idx)
+    order = np.argsort(idx)
+    facet_tags = dmesh.meshtags(m, 1, idx[order].astype(np.int32), np.concatenate(val)[order])
+    sm = SiloMesh(m, data.cell_tags, facet_tags, outline)
+    check_fits(sm)
+    return sm
+
+
+def check_fits(sm: SiloMesh, rel_tol: float = 1e-6) -> None:
+    """Raise MeshingError unless the mesh lies inside the wall and its wall nodes lie on it."""
+    m = sm.mesh
+    x = m.geometry.x
+    comm = m.comm
+    scale = max(sm.outline.r_max, sm.outline.fill_height)
+    tol = rel_tol * scale
+    proj = sm.outline.wall.project(x)
+    worst_in = comm.allreduce(float(proj.distance.min(initial=np.inf)), op=_mpi_min())
+    wall_nodes = sm.nodes_on("wall")
+    off = np.abs(proj.distance[wall_nodes]).max(initial=0.0)
+    worst_off = comm.allreduce(float(off), op=_mpi_max())
+    rmin = comm.allreduce(float(x[:, 0].min(initial=np.inf)), op=_mpi_min())
+    if rmin < -tol:
+        raise MeshingError(f"mesh is not a silo: it has nodes at r = {rmin:.3g} < 0. Fix: the (r, z) mesh "
+                           "must lie in r ≥ 0 with the axis at r = 0.")
+    if worst_in < -tol:
+        raise MeshingError(f"the wall crosses the material: a mesh node lies {-worst_in:.3g} m beyond the "
+                           "wall described by [geometry]. Fix: make the geometry keys match the mesh "
+                           "(or remesh with silo mesh).")
+    if worst_off > max(tol, 1e-3 * scale):
+        raise MeshingError(f"mesh nodes tagged 'wall' lie up to {worst_off:.3g} m off the wall described "
+                           "by [geometry]. Fix: make the geometry keys match the mesh.")
+
+
+def _mpi_min():
+    from mpi4py import MPI
+
+    return MPI.MIN
+
+
+def _mpi_max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+def mesh_scene(scene, comm, *, msh_path: str | Path | None = None) -> SiloMesh:
+    """The mesh a scene asks for: its ``mesh_file`` if given, else a gmsh mesh of its geometry."""
+    g = scene.geometry
+    if g.mesh_file:
+        path = Path(g.mesh_file)
+        if not path.is_absolute() and scene.source is not None:
+            path = scene.source.parent / path
+        return read_mesh(path, scene.outline, comm)
+    sm = create_mesh(scene.outline, MeshOptions.from_geometry(g), comm, msh_path=msh_path)
+    return sm
+
+
+def mesh_geometry(geometry: dict, msh_path: str | Path, comm=None, *, show: bool = True) -> SiloMesh:
+    """Validate a [geometry] dict, mesh it, write ``msh_path`` (and a PNG next to it).
+
+    This is what the scripts in ``meshes/`` call: edit their GEOMETRY dict for a new silo.
+    """
+    from mpi4py import MPI
+
+    from silo_dolfinx.geometry.plot import plot_mesh
+    from silo_dolfinx.geometry.quality import quality_report
+    from silo_dolfinx.geometry.shapes import outline_from_geometry
+    from silo_dolfinx.scene.loader import load_geometry
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    g = load_geometry(geometry)
+    outline = outline_from_geometry(g)
+    sm = create_mesh(outline, MeshOptions.from_geometry(g), comm, msh_path=msh_path)
+    q = quality_report(sm.mesh)
+    if show:
+        plot_mesh(sm, Path(msh_path).with_suffix(".png"), title=f"{Path(msh_path).stem}: {q['cells']} cells")
+    if comm.rank == 0:
+        vol, exact = sm.volume_of_revolution(), outline.volume()
+        print(f"{msh_path}: {q['cells']} cells, volume {vol:.6g} m³ (exact {exact:.6g}), "
+              f"min angle {q['min_angle_deg']:.1f}°, inverted {q['inverted']}")
+    else:
+        sm.volume_of_revolution()
+    return sm

@@ -1,0 +1,458 @@
+"""Read, override, validate and resolve scene files.
+
+``load_scene(path, overrides)`` returns a :class:`Scene` in which every key has a value
+(defaults and derived values filled in) or raises :class:`SceneError` listing every problem,
+each naming the key, the value, what is allowed and how to fix it. Nothing is meshed or
+allocated before this succeeds.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+import tomli_w
+
+from silo_dolfinx.scene.errors import Problem, SceneError
+from silo_dolfinx.scene.schema import (
+    DERIVED,
+    REQUIRED,
+    REQUIRED_SECTIONS,
+    SECTION_BY_NAME,
+    SECTIONS,
+    TOP_KEYS,
+    Key,
+    Section,
+)
+
+
+class SceneSection(Mapping):
+    """Read-only view of one resolved section with attribute access (``scene.material.density``)."""
+
+    def __init__(self, name: str, data: dict[str, Any]):
+        object.__setattr__(self, "_name", name)
+        object.__setattr__(self, "_data", dict(data))
+
+    def __getattr__(self, key: str) -> Any:
+        try:
+            return self._data[key]
+        except KeyError:
+            raise AttributeError(f"[{self._name}] has no key {key!r}") from None
+
+    def __setattr__(self, key, value):
+        raise AttributeError("scene sections are read-only; use --set or edit the scene file")
+
+    def __getitem__(self, key: str) -> Any:
+        return self._data[key]
+
+    def __iter__(self):
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __repr__(self) -> str:
+        return f"SceneSection({self._name}, {self._data})"
+
+
+class Scene:
+    """A validated, fully resolved scene."""
+
+    def __init__(self, data: dict[str, Any], source: Path | None, warnings: list[str]):
+        self._data = data
+        self.source = source
+        self.warnings = warnings
+        self.title: str = data["title"]
+        self.description: str = data["description"]
+        for s in SECTIONS:
+            setattr(self, s.name, SceneSection(s.name, data[s.name]))
+        self._outline = None
+
+    @property
+    def outline(self):
+        """The silo geometry (analytic wall, outlet, fill) described by [geometry]."""
+        if self._outline is None:
+            from silo_dolfinx.geometry.shapes import outline_from_geometry
+
+            self._outline = outline_from_geometry(self._data["geometry"])
+        return self._outline
+
+    def to_dict(self) -> dict[str, Any]:
+        import copy
+
+        return copy.deepcopy(self._data)
+
+    def to_toml(self) -> str:
+        """The resolved scene as TOML: loading it again gives the same scene."""
+        d = self.to_dict()
+        d.pop("base", None)
+        lines = [f"{k} = {_toml_value(d[k])}" for k in ("title", "description")]
+        for s in SECTIONS:
+            lines += ["", f"[{s.name}]"] + [f"{k} = {_toml_value(v)}" for k, v in d[s.name].items()]
+        return "\n".join(lines) + "\n"
+
+    def with_overrides(self, overrides: list[str]) -> Scene:
+        return load_scene(self.to_dict(), overrides, source=self.source)
+
+
+def _toml_value(v) -> str:
+    """One TOML value on one line (scene values are scalars, lists and lists of pairs)."""
+    if isinstance(v, str):
+        return tomli_w.dumps({"v": v})[4:].strip()
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, int):
+        return str(v)
+    return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+
+
+# ---------------------------------------------------------------------------- reading
+def read_toml(path: Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """Read a scene file, following ``base = "other.toml"`` (relative to the file)."""
+    path = Path(path).resolve()
+    if path in _seen:
+        chain = " -> ".join(p.name for p in _seen + (path,))
+        raise SceneError(Problem("", "base", f"circular base chain {chain}. Fix: remove one base."))
+    if not path.is_file():
+        raise SceneError(Problem("", "base" if _seen else "scene",
+                                 f"file {str(path)!r} not found. Fix: check the path."))
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(Problem("", "syntax", f"{path.name}: {e}. Fix: correct the TOML syntax."),
+                         str(path)) from None
+    base = data.get("base", "")
+    if base:
+        if not isinstance(base, str):
+            raise SceneError(Problem("", "base", f"= {base!r}: must be a file path string."))
+        parent = read_toml(path.parent / base, _seen + (path,))
+        parent.pop("title", None)
+        parent.pop("description", None)
+        data = _merge(parent, data)
+    return data
+
+
+def _merge(a: dict, b: dict) -> dict:
+    out = dict(a)
+    for k, v in b.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = _merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def apply_overrides(data: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:
+    """Apply ``section.key=value`` overrides (value in TOML syntax; bare words are strings)."""
+    data = _merge({}, data)
+    for item in overrides or ():
+        if "=" not in item:
+            raise SceneError(Problem("", "--set", f"{item!r} is not of the form section.key=value. "
+                                     "Fix: e.g. --set material.density=1500"))
+        path, raw = item.split("=", 1)
+        path = path.strip()
+        try:
+            value = tomllib.loads(f"v = {raw.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = raw.strip()
+        parts = path.split(".")
+        if len(parts) == 1:
+            data[parts[0]] = value
+        elif len(parts) == 2:
+            sec = data.setdefault(parts[0], {})
+            if not isinstance(sec, dict):
+                raise SceneError(Problem(parts[0], parts[1], "cannot override: the section is not a table."))
+            sec[parts[1]] = value
+        else:
+            raise SceneError(Problem("", "--set", f"{path!r}: use section.key (one dot). "
+                                     "Fix: e.g. --set geometry.element_size=0.02"))
+    return data
+
+
+# ---------------------------------------------------------------------------- validation
+def load_scene(
+    scene: str | Path | Mapping[str, Any],
+    overrides: list[str] | tuple[str, ...] = (),
+    *,
+    source: Path | None = None,
+) -> Scene:
+    """Load and validate a scene (a file path or a dict); raise :class:`SceneError` if unusable."""
+    if isinstance(scene, str | Path):
+        source = Path(scene)
+        raw = read_toml(source)
+    else:
+        raw = _merge({}, dict(scene))
+        if raw.get("base"):  # a dict may start from a file too (relative to source, else cwd)
+            parent = read_toml((Path(source).parent if source else Path.cwd()) / raw["base"])
+            parent.pop("title", None)
+            parent.pop("description", None)
+            raw = _merge(parent, raw)
+    raw = apply_overrides(raw, overrides)
+    problems: list[Problem] = []
+    warnings: list[str] = []
+    out: dict[str, Any] = {}
+
+    # top-level keys and sections
+    top_names = {k.name for k in TOP_KEYS}
+    for name, value in raw.items():
+        if name in top_names or name in SECTION_BY_NAME:
+            continue
+        if isinstance(value, dict):
+            problems.append(Problem(name, "(section)", "unknown section." + _suggest(name, SECTION_BY_NAME)
+                                    + f" Sections: {', '.join(SECTION_BY_NAME)}."))
+        else:
+            problems.append(Problem("", name, "unknown top-level key." + _suggest(name, top_names | set(SECTION_BY_NAME))
+                                    + f" Top-level keys: {', '.join(sorted(top_names))}; everything "
+                                    "else belongs in a [section]."))
+    for k in TOP_KEYS:
+        v = raw.get(k.name, k.default)
+        problems += _check_value("", k, v) if k.name in raw else []
+        out[k.name] = v
+    if not out["title"] and source is not None:
+        out["title"] = Path(source).stem
+    out["base"] = ""  # inheritance is resolved: the resolved scene stands alone
+
+    for name in REQUIRED_SECTIONS:
+        if name not in raw:
+            problems.append(Problem(name, "(section)", f"missing section [{name}]. Fix: add it; see "
+                                    "docs/scene.md for its keys."))
+    for sec in SECTIONS:
+        given = raw.get(sec.name, {})
+        if not isinstance(given, dict):
+            problems.append(Problem(sec.name, "(section)", f"must be a table, got {given!r}. Fix: "
+                                    f"write [{sec.name}] followed by key = value lines."))
+            given = {}
+        resolved, probs, warns = _resolve_section(sec, given, present=sec.name in raw)
+        out[sec.name] = resolved
+        problems += probs
+        warnings += warns
+    if problems:
+        raise SceneError(problems, str(source) if source else None)
+
+    problems += _cross_checks(out)
+    if problems:
+        raise SceneError(problems, str(source) if source else None)
+    # Geometry: shape consistency and derived sizes (pure Python, no meshing).
+    from silo_dolfinx.geometry.shapes import resolve_geometry
+
+    problems += resolve_geometry(out["geometry"])
+    if not problems:
+        problems += _resolve_derived(out)
+    if problems:
+        raise SceneError(problems, str(source) if source else None)
+    return Scene(out, Path(source) if source else None, warnings)
+
+
+def load_geometry(geometry: Mapping[str, Any]) -> dict[str, Any]:
+    """Validate and resolve a [geometry] section on its own (for gmsh scripts and tools)."""
+    g, problems, _ = _resolve_section(SECTION_BY_NAME["geometry"], dict(geometry), present=True)
+    if not problems:
+        from silo_dolfinx.geometry.shapes import resolve_geometry
+
+        problems = resolve_geometry(g)
+    if problems:
+        raise SceneError(problems)
+    return g
+
+
+def _resolve_section(sec: Section, given: dict, present: bool):
+    problems: list[Problem] = []
+    warnings: list[str] = []
+    variant = None
+    if sec.selector:
+        skey = next(k for k in sec.keys if k.name == sec.selector)
+        variant = given.get(sec.selector, skey.default)
+        if variant is REQUIRED:
+            if present or sec.name in REQUIRED_SECTIONS:
+                problems.append(_missing(sec, skey, None))
+            return {}, problems, warnings
+        p = _check_value(sec.name, skey, variant)
+        if p:
+            return {}, p, warnings
+    keys = sec.keys_for(variant)
+    if sec.selector:  # selector first, then the variant's keys, then the common keys
+        keys = keys[:1] + sec.variants.get(variant, ()) + sec.keys[1:]
+    names = {k.name for k in keys}
+    other = sec.all_key_names() - names
+    resolved: dict[str, Any] = {}
+    for name, value in given.items():
+        if name in names:
+            continue
+        if name in other:
+            warnings.append(f"[{sec.name}] {name} is ignored: it is not used when "
+                            f"{sec.selector} = {variant!r}.")
+            continue
+        choices = sorted(names)
+        problems.append(Problem(sec.name, name, "unknown key." + _suggest(name, names)
+                                + f" Keys of [{sec.name}]"
+                                + (f" ({sec.selector} = {variant!r})" if variant else "")
+                                + f": {', '.join(choices)}."))
+    for k in keys:
+        if k.name in given:
+            p = _check_value(sec.name, k, given[k.name])
+            problems += p
+            if not p:
+                resolved[k.name] = _normalise(k, given[k.name])
+        elif k.default is REQUIRED:
+            problems.append(_missing(sec, k, variant))
+        else:
+            resolved[k.name] = k.default if k.default is DERIVED else _normalise(k, k.default)
+    return resolved, problems, warnings
+
+
+def _missing(sec: Section, k: Key, variant) -> Problem:
+    why = f" (required for {sec.selector} = {variant!r})" if variant else " (required)"
+    unit = f" ({k.unit})" if k.unit and k.unit != "-" else ""
+    return Problem(sec.name, k.name, f"missing{why}: {k.doc} Fix: add `{k.name} = "
+                   f"{_fmt(k.example_value())}`{unit} to [{sec.name}].")
+
+
+def _normalise(k: Key, v):
+    if k.kind == "float":
+        return float(v)
+    if k.kind == "int":
+        return int(v)
+    if k.kind == "floats":
+        return [float(x) for x in v]
+    if k.kind == "points":
+        return [[float(a), float(b)] for a, b in v]
+    return v
+
+
+def _is_num(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _check_value(section: str, k: Key, v) -> list[Problem]:
+    ex = _fmt(k.example_value())
+    fix = f" Fix: e.g. `{k.name} = {ex}`."
+    unit = f" {k.unit}" if k.unit and k.unit != "-" else ""
+    want = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string",
+            "choice": "a string", "floats": "a list of numbers", "points": "a list of [r, z] pairs"}
+    if k.kind == "float" and not _is_num(v) or k.kind == "bool" and not isinstance(v, bool) \
+            or k.kind in ("str", "choice") and not isinstance(v, str):
+        return [Problem(section, k.name, f"= {v!r}: wrong type, expected {want[k.kind]}{unit}.{fix}")]
+    if k.kind == "int" and not (isinstance(v, int) and not isinstance(v, bool)
+                                or isinstance(v, float) and v.is_integer()):
+        return [Problem(section, k.name, f"= {v!r}: wrong type, expected an integer.{fix}")]
+    if k.kind == "choice" and v not in k.choices:
+        return [Problem(section, k.name, f"= {v!r} is not allowed: must be {k.range_text()}."
+                        + _suggest(v, k.choices))]
+    if k.kind in ("float", "int"):
+        if isinstance(v, float) and not math.isfinite(v):
+            return [Problem(section, k.name, f"= {v!r}: must be finite, {k.range_text()}.{fix}")]
+        if not _in_range(k, v):
+            return [Problem(section, k.name, f"= {_fmt(v)} is out of range: must be {k.range_text()}.{fix}")]
+    if k.kind == "floats":
+        if not isinstance(v, list | tuple) or not all(_is_num(x) for x in v):
+            return [Problem(section, k.name, f"= {v!r}: wrong type, expected a list of numbers.{fix}")]
+        if k.length is not None and len(v) != k.length:
+            return [Problem(section, k.name, f"= {v!r}: needs exactly {k.length} numbers.{fix}")]
+        bad = [x for x in v if not math.isfinite(x) or not _in_range(k, x)]
+        if bad:
+            return [Problem(section, k.name, f"= {v!r}: every entry must be {k.range_text()} "
+                            f"(offending: {_fmt(bad[0])}).{fix}")]
+    if k.kind == "points":
+        ok = isinstance(v, list) and len(v) >= 2 and all(
+            isinstance(p, list) and len(p) == 2 and all(_is_num(x) and math.isfinite(x) for x in p) for p in v)
+        if not ok:
+            return [Problem(section, k.name, "must be a list of at least two [r, z] pairs of numbers."
+                            f" Fix: e.g. `{k.name} = {ex}`.")]
+    return []
+
+
+def _in_range(k: Key, v) -> bool:
+    if k.lo is not None and (v <= k.lo if k.lo_open else v < k.lo):
+        return False
+    if k.hi is not None and (v >= k.hi if k.hi_open else v > k.hi):
+        return False
+    return True
+
+
+def _fmt(v) -> str:
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return f"{v:g}"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)
+
+
+def _suggest(name: str, names) -> str:
+    m = difflib.get_close_matches(str(name), [str(n) for n in names], n=1, cutoff=0.6)
+    return f" Did you mean {m[0]!r}?" if m else ""
+
+
+def _cross_checks(out: dict[str, Any]) -> list[Problem]:
+    p: list[Problem] = []
+    m = out["material"]
+    if "dilation_angle" in m and m["dilation_angle"] > m["friction_angle"]:
+        p.append(Problem("material", "dilation_angle", f"= {_fmt(m['dilation_angle'])} exceeds "
+                         f"friction_angle = {_fmt(m['friction_angle'])}: dilation may not exceed "
+                         "friction (that would create energy). Fix: dilation_angle ≤ friction_angle "
+                         "(equal = associated flow)."))
+    w = out["wall"]
+    if "mu_kinetic" in w and w["mu_kinetic"] > w["mu_static"]:
+        p.append(Problem("wall", "mu_kinetic", f"= {_fmt(w['mu_kinetic'])} exceeds mu_static = "
+                         f"{_fmt(w['mu_static'])}. Fix: mu_kinetic ≤ mu_static."))
+    a = out["ale"]
+    tot = a["laplacian_weight"] + a["mid_area_weight"]
+    if not 0.0 < tot <= 1.0 + 1e-12:
+        p.append(Problem("ale", "mid_area_weight", f"laplacian_weight + mid_area_weight = {tot:g}: "
+                         "must be in (0, 1]. Fix: e.g. laplacian_weight = 0.5, mid_area_weight = 0.5."))
+    d = out["discharge"]
+    if d["mode"] != "none" and d["duration"] <= 0.0:
+        p.append(Problem("discharge", "duration", f"= {_fmt(d['duration'])} with mode = "
+                         f"{d['mode']!r}: a discharge needs a positive duration. Fix: e.g. "
+                         "duration = 10.0, or mode = \"none\"."))
+    if out["fill"]["method"] != "k0" and out["fill"]["duration"] <= 0.0:
+        p.append(Problem("fill", "duration", "= 0: filling by layers or ramp needs time. Fix: e.g. "
+                         "duration = 10.0, or method = \"k0\" to start from a geostatic state."))
+    return p
+
+
+def _resolve_derived(out: dict[str, Any]) -> list[Problem]:
+    """Defaults that depend on other keys (geometry-derived ones are set by the geometry layer)."""
+    p: list[Problem] = []
+    f = out["fill"]
+    if f.get("k0") is DERIVED:
+        nu = out["material"]["poisson_ratio"]
+        f["k0"] = nu / (1.0 - nu)
+    o = out["output"]
+    g = out["geometry"]
+    if o["stations"] is DERIVED:
+        if o["station_coordinate"] == "z":
+            hf = g["fill_height"]
+            o["stations"] = [round(hf * (i + 0.5) / 10, 6) for i in range(10)]
+        else:
+            from silo_dolfinx.geometry.shapes import outline_from_geometry
+
+            L = outline_from_geometry(g).wall_length_below_fill
+            o["stations"] = [round(L * (i + 0.5) / 10, 6) for i in range(10)]
+    else:
+        from silo_dolfinx.geometry.shapes import outline_from_geometry
+
+        ol = outline_from_geometry(g)
+        top = g["fill_height"] if o["station_coordinate"] == "z" else ol.wall_length_below_fill
+        for x in o["stations"]:
+            if not 0.0 <= x <= top * (1 + 1e-12):
+                name = "height" if o["station_coordinate"] == "z" else "wall arclength"
+                p.append(Problem("output", "stations", f"station {x:g} m is outside the wetted wall: "
+                                 f"the {name} must be in [0, {top:g}] m. Fix: remove it or use a value "
+                                 "in that range."))
+                break
+    return p

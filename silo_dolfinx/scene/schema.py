@@ -1,0 +1,397 @@
+"""The scene schema: every section and key a scene file may hold, with units, ranges and defaults.
+
+This table is the single source of truth: the loader validates against it, ``silo check``
+prints defaults from it, and ``docs/scene.md`` is generated from it
+(``silo schema > docs/scene.md``; a test keeps the two in sync).
+
+Conventions: SI units, angles in degrees, heights measured upwards from the outlet (or from
+the flat bottom), radii from the axis. Sections with a *selector* key (``geometry.shape``,
+``material.model``, ``wall.friction``, ``fill.method``, ``discharge.mode``) take the
+common keys plus the keys of the selected variant.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+
+class _Sentinel:
+    def __init__(self, name: str):
+        self.name = name
+
+    def __repr__(self) -> str:
+        return self.name
+
+
+REQUIRED = _Sentinel("REQUIRED")
+DERIVED = _Sentinel("DERIVED")  # filled in by the loader from other keys (documented per key)
+
+
+@dataclass(frozen=True)
+class Key:
+    name: str
+    kind: str  # float | int | bool | str | choice | floats | points
+    default: Any = REQUIRED
+    unit: str = ""
+    doc: str = ""
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple = ()
+    length: int | None = None  # for floats
+    example: Any = None
+
+    def range_text(self) -> str:
+        """Human-readable allowed range, e.g. '> 0 kg/m³' or 'in (-1, 0.5)'."""
+        u = f" {self.unit}" if self.unit and self.unit != "-" else ""
+        if self.kind == "choice":
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        if self.lo is not None and self.hi is not None:
+            lb = "(" if self.lo_open else "["
+            rb = ")" if self.hi_open else "]"
+            return f"in {lb}{_num(self.lo)}, {_num(self.hi)}{rb}{u}"
+        if self.lo is not None:
+            return f"{'>' if self.lo_open else '≥'} {_num(self.lo)}{u}"
+        if self.hi is not None:
+            return f"{'<' if self.hi_open else '≤'} {_num(self.hi)}{u}"
+        return {"bool": "true or false", "str": "a string", "points": "a list of [r, z] pairs"}.get(
+            self.kind, f"a {self.kind}"
+        )
+
+    def example_value(self) -> Any:
+        if self.example is not None:
+            return self.example
+        if self.default not in (REQUIRED, DERIVED):
+            return self.default
+        if self.kind == "choice":
+            return self.choices[0]
+        if self.lo is not None and self.hi is not None:
+            return 0.5 * (self.lo + self.hi)
+        return 1.0
+
+
+def _num(x: float) -> str:
+    return f"{x:g}"
+
+
+@dataclass(frozen=True)
+class Section:
+    name: str
+    doc: str
+    keys: tuple[Key, ...] = ()
+    selector: str | None = None
+    variants: dict[str, tuple[Key, ...]] = field(default_factory=dict)
+
+    def keys_for(self, variant: str | None) -> tuple[Key, ...]:
+        return self.keys + (self.variants.get(variant, ()) if variant is not None else ())
+
+    def all_key_names(self) -> set[str]:
+        names = {k.name for k in self.keys}
+        for ks in self.variants.values():
+            names |= {k.name for k in ks}
+        return names
+
+
+def F(name, default=REQUIRED, unit="", doc="", **kw) -> Key:
+    return Key(name, "float", default, unit, doc, **kw)
+
+
+def I(name, default=REQUIRED, unit="-", doc="", **kw) -> Key:  # noqa: E743
+    return Key(name, "int", default, unit, doc, **kw)
+
+
+def C(name, choices, default=REQUIRED, doc="") -> Key:
+    return Key(name, "choice", default, "", doc, choices=tuple(choices))
+
+
+POS = dict(lo=0.0, lo_open=True)
+NONNEG = dict(lo=0.0)
+
+# ---------------------------------------------------------------------------- top level
+TOP_KEYS: tuple[Key, ...] = (
+    Key("title", "str", "", doc="Name of the run (default: the scene file's name)."),
+    Key("description", "str", "", doc="Free text: what the scene reproduces, assumptions made."),
+    Key(
+        "base",
+        "str",
+        "",
+        doc="Another scene file (path relative to this one) whose keys this scene starts from; "
+        "keys given here override it. Used for variants of one study.",
+    ),
+)
+
+# ---------------------------------------------------------------------------- sections
+_radius_out = F("outlet_radius", unit="m", doc="Radius of the central outlet.", **POS, example=0.1)
+
+GEOMETRY = Section(
+    "geometry",
+    "The silo in the (r, z) half-plane. `shape` selects the keys; `profile` takes any wall.",
+    keys=(
+        C("shape", ("hopper", "flat_bottom", "bin_hopper", "column", "profile"),
+          doc="hopper: conical hopper; flat_bottom: cylinder on a flat floor with a central "
+          "outlet; bin_hopper: cylinder on a conical hopper, abrupt or filleted transition; "
+          "column: tapered column whose whole base is the outlet; profile: your own wall."),
+        F("fill_height", DERIVED, "m", "Height of the (flat) top surface of the fill. Default: the "
+          "wall's full height.", **POS),
+        F("element_size", DERIVED, "m", "Target element size away from refinement. Default: the "
+          "largest wall radius below the fill / 20.", **POS),
+        C("mesh", ("structured", "unstructured"), "structured",
+          "structured: block-structured quadrilaterals in horizontal bands (the thesis' meshes); "
+          "unstructured: frontal-Delaunay quadrilaterals (any wall, e.g. with ledges)."),
+        F("max_aspect_ratio", 2.0, "-", "Structured meshes: the vertical cell size is at most this "
+          "times the local radial cell size (keeps cells near a hopper outlet from becoming needles).",
+          lo=1.0),
+        F("outlet_size_factor", 1.0, "-", "Element size at the outlet edge as a fraction of "
+          "element_size (1 = no refinement).", lo=0.0, hi=1.0, lo_open=True),
+        F("transition_size_factor", 1.0, "-", "Element size at wall corners and fillets (the "
+          "transition) as a fraction of element_size.", lo=0.0, hi=1.0, lo_open=True),
+        F("refinement_distance", DERIVED, "m", "Distance over which the size grows back from a "
+          "refined point to element_size. Default: 1/4 of the largest wall radius.", **POS),
+        Key("mesh_file", "str", "", doc="Use this gmsh .msh file (tags material, wall, outlet, "
+            "top, axis) instead of meshing; it must fit the wall described by the other keys."),
+        I("max_cells", 2_000_000, doc="Refuse to mesh more cells than this (guards typos in "
+          "element_size).", lo=1),
+    ),
+    selector="shape",
+    variants={
+        "hopper": (
+            F("height", unit="m", doc="Height of the hopper wall above the outlet.", **POS, example=2.64),
+            F("top_radius", unit="m", doc="Radius at the top of the hopper.", **POS, example=1.2),
+            _radius_out,
+        ),
+        "flat_bottom": (
+            F("radius", unit="m", doc="Radius of the cylinder.", **POS, example=0.35),
+            F("height", unit="m", doc="Height of the cylinder wall.", **POS, example=4.0),
+            _radius_out,
+        ),
+        "bin_hopper": (
+            F("radius", unit="m", doc="Radius of the cylinder (bin).", **POS, example=0.35),
+            F("bin_height", unit="m", doc="Height of the vertical wall above the transition.", **POS,
+              example=4.18),
+            F("hopper_half_angle", unit="deg", doc="Hopper apex half-angle, from the vertical.",
+              lo=0.0, hi=90.0, lo_open=True, hi_open=True, example=20.0),
+            _radius_out,
+            F("fillet_radius", 0.0, "m", "Radius of the circular blend at the transition; 0 = "
+              "abrupt corner.", **NONNEG),
+        ),
+        "column": (
+            F("base_radius", unit="m", doc="Radius of the base (the whole base is the outlet).",
+              **POS, example=0.5),
+            F("height", unit="m", doc="Height of the column.", **POS, example=5.0),
+            F("half_angle", 0.0, "deg", "Wall angle from the vertical: + converging (widening "
+              "upwards, apex down), - diverging, 0 parallel.", lo=-60.0, hi=60.0),
+        ),
+        "profile": (
+            Key("wall", "points", REQUIRED, "m", "Wall points [r, z] from the outlet edge (z = 0) "
+                "up to the top; z may not decrease. Straight segments join them.",
+                example=[[0.1, 0.0], [0.5, 1.0], [0.5, 3.0]]),
+            _radius_out,
+        ),
+    },
+)
+
+MATERIAL = Section(
+    "material",
+    "The granular solid. Drucker-Prager in the thesis' convention: q = sqrt(3 J2), yield "
+    "q = p tan(friction_angle) + cohesion, plastic potential slope tan(dilation_angle).",
+    keys=(
+        C("model", ("elastic", "drucker_prager", "non_coaxial"),
+          doc="elastic: linear elastic; drucker_prager: elastic-perfectly plastic, "
+          "non-associated; non_coaxial: Drucker-Prager with a yield-vertex non-coaxial term."),
+        F("density", unit="kg/m³", doc="Bulk density (unit weight / g).", **POS, example=1000.0),
+        F("youngs_modulus", unit="Pa", doc="Young's modulus.", **POS, example=5.5e5),
+        F("poisson_ratio", 0.3, "-", "Poisson's ratio.", lo=-1.0, hi=0.5, lo_open=True, hi_open=True),
+    ),
+    selector="model",
+    variants={
+        "elastic": (),
+        "drucker_prager": (
+            F("friction_angle", unit="deg", doc="Drucker-Prager β: slope of the yield line in the "
+              "p-q plane (β = 30° gives q/p = 0.577).", lo=0.0, hi=70.0, hi_open=True, example=30.0),
+            F("dilation_angle", 0.0, "deg", "ψ: slope of the plastic potential in the p-q plane "
+              "(≤ friction_angle; equal = associated).", lo=0.0, hi=70.0, hi_open=True),
+            F("cohesion", 1.0, "Pa", "d: yield q at p = 0.", **NONNEG),
+        ),
+    },
+)
+MATERIAL.variants["non_coaxial"] = MATERIAL.variants["drucker_prager"] + (
+    F("noncoaxial_modulus", unit="Pa", doc="H_nc: modulus of the non-coaxial plastic strain rate "
+      "(1/H_nc)·ṡⁿ (eq. 8-9).", **POS, example=1.0e7),
+)
+
+WALL = Section(
+    "wall",
+    "Contact between the solid and the rigid wall (all wall pieces, floors included).",
+    keys=(C("friction", ("none", "coulomb", "velocity_dependent"),
+            doc="none: smooth wall; coulomb: constant μ, stick/slip; velocity_dependent: "
+            "μ = μk + (μs − μk)·exp(−decay·v_slip) (eq. 7-1)."),),
+    selector="friction",
+    variants={
+        "none": (),
+        "coulomb": (F("mu", unit="-", doc="Wall friction coefficient.", lo=0.0, hi=2.0, example=0.3),),
+        "velocity_dependent": (
+            F("mu_static", unit="-", doc="μs, at zero slip velocity.", lo=0.0, hi=2.0, example=0.67),
+            F("mu_kinetic", unit="-", doc="μk, at high slip velocity (≤ mu_static).", lo=0.0, hi=2.0,
+              example=0.3),
+            F("decay", unit="s/m", doc="ϖ, decay coefficient in eq. 7-1.", **NONNEG, example=2.0),
+        ),
+    },
+)
+
+LOADS = Section(
+    "loads",
+    "Body force and top surcharge.",
+    keys=(
+        F("gravity", 9.81, "m/s²", "Gravitational acceleration.", **POS),
+        F("top_surcharge", 0.0, "Pa", "Uniform pressure on the top surface (ch. 5 columns use one "
+          "for a near-uniform initial stress).", **NONNEG),
+    ),
+)
+
+FILL = Section(
+    "fill",
+    "How the initial (end-of-filling) state is made.",
+    keys=(
+        C("method", ("layers", "ramp", "k0"), "layers",
+          "layers: the fill is activated in horizontal layers from the bottom, each stress-free "
+          "when it appears; ramp: gravity is ramped smoothly on the whole fill; k0: start from "
+          "the geostatic field σzz = −ρg(H−z), σrr = σθθ = k0·σzz, no filling stage."),
+        F("duration", 10.0, "s", "Duration of the filling stage.", **NONNEG),
+        F("ramp_fraction", 0.5, "-", "Fraction of each layer's (or the ramp's) time over which "
+          "its gravity is ramped smoothly; the rest lets it settle.", lo=0.0, hi=1.0, lo_open=True),
+    ),
+    selector="method",
+    variants={
+        "layers": (I("layers", 10, doc="Number of layers.", lo=1),),
+        "ramp": (),
+        "k0": (F("k0", DERIVED, "-", "Lateral pressure ratio. Default: ν/(1−ν).", **POS),),
+    },
+)
+
+STORE = Section(
+    "store",
+    "Storage after filling: the silo closed, the solid coming to rest.",
+    keys=(
+        F("duration", 2.0, "s", "Longest storage time.", **NONNEG),
+        F("kinetic_energy_tol", 0.0, "-", "End storage early once kinetic energy < tol × work of "
+          "gravity (0: always run the full duration).", **NONNEG),
+    ),
+)
+
+DISCHARGE = Section(
+    "discharge",
+    "Opening the outlet.",
+    keys=(
+        C("mode", ("none", "free", "controlled"), "none",
+          "none: no discharge stage; free: the outlet support is removed at once; controlled: "
+          "the outlet velocity is prescribed, u(t) = u0/2·(1 − cos(π t/ramp_time)) then u0."),
+        F("duration", 0.0, "s", "Duration of the discharge stage.", **NONNEG),
+        C("gate", ("smooth", "rough", "fixed"), "smooth",
+          "How the closed outlet holds the solid before discharge: smooth (no friction), rough "
+          "(wall friction law), fixed (no slip)."),
+    ),
+    selector="mode",
+    variants={
+        "none": (),
+        "free": (),
+        "controlled": (
+            F("velocity", unit="m/s", doc="u0, the final outlet velocity (downwards).", **POS,
+              example=1.0),
+            F("ramp_time", 2.0, "s", "Time to reach u0.", **NONNEG),
+        ),
+    },
+)
+
+NUMERICS = Section(
+    "numerics",
+    "Explicit time integration.",
+    keys=(
+        F("time_step_scale", 0.8, "-", "Δt = scale × min over elements of L_min/c_d (with the "
+          "bulk-viscosity correction).", lo=0.0, hi=2.0, lo_open=True),
+        Key("bulk_viscosity", "floats", (0.06, 1.2), "-", "[linear, quadratic] bulk viscosity "
+            "coefficients; [0, 0] switches it off.", lo=0.0, length=2),
+        F("mass_scaling", 1.0, "-", "Factor on the inertial mass (Δt grows with its square root); "
+          "1 = none.", lo=1.0),
+    ),
+)
+
+ALE = Section(
+    "ale",
+    "Arbitrary Lagrangian-Eulerian mesh motion (thesis ch. 3.2).",
+    keys=(
+        Key("enabled", "bool", True, doc="false = purely Lagrangian."),
+        I("frequency", 10, doc="Smooth and remap every this many steps.", lo=1),
+        I("sweeps", 1, doc="Smoothing sweeps per smoothing.", lo=1),
+        F("laplacian_weight", 0.5, "-", "Weight of Laplacian smoothing (eq. 3-4).", lo=0.0, hi=1.0),
+        F("mid_area_weight", 0.5, "-", "Weight of mid-area (volume-weighted) smoothing (eq. 3-5); "
+          "the two weights sum to at most 1.", lo=0.0, hi=1.0),
+        I("remap_order", 2, doc="1: donor cell (first order); 2: limited second order.", lo=1, hi=2),
+    ),
+)
+
+OUTPUT = Section(
+    "output",
+    "What is written to the results folder.",
+    keys=(
+        Key("stations", "floats", DERIVED, "m", "Wall stations for time histories, as heights "
+            "(or arclengths, see station_coordinate). Default: 10 evenly spaced on the fill."),
+        C("station_coordinate", ("z", "s"), "z", "z: stations are heights; s: wall arclengths "
+          "from the outlet edge."),
+        F("history_rate", 200.0, "Hz", "Sampling rate of time histories.", **POS),
+        F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX).", **POS),
+    ),
+)
+
+SECTIONS: tuple[Section, ...] = (
+    GEOMETRY, MATERIAL, WALL, LOADS, FILL, STORE, DISCHARGE, NUMERICS, ALE, OUTPUT
+)
+SECTION_BY_NAME = {s.name: s for s in SECTIONS}
+REQUIRED_SECTIONS = ("geometry", "material", "wall")
+
+
+def markdown() -> str:
+    """The scene reference as Markdown (docs/scene.md is this, verbatim)."""
+    out = [
+        "# Scene file reference",
+        "",
+        "<!-- generated by `silo schema > docs/scene.md`; do not edit -->",
+        "",
+        __doc__.split("\n\n", 1)[1].strip(),
+        "",
+        "Sections [" + "], [".join(REQUIRED_SECTIONS) + "] are required; all others are optional.",
+        "",
+        "## Top level",
+        "",
+        _table(TOP_KEYS),
+    ]
+    for s in SECTIONS:
+        out += ["", f"## [{s.name}]", "", s.doc, "", _table(s.keys)]
+        for v, ks in s.variants.items():
+            if ks:
+                out += ["", f"`{s.selector} = \"{v}\"`:", "", _table(ks)]
+    return "\n".join(out) + "\n"
+
+
+def _table(keys) -> str:
+    rows = ["| key | unit | default | allowed | meaning |", "|---|---|---|---|---|"]
+    for k in keys:
+        d = k.default
+        ds = "**required**" if d is REQUIRED else ("derived" if d is DERIVED else f"`{_toml(d)}`")
+        rows.append(f"| `{k.name}` | {k.unit or '-'} | {ds} | {k.range_text()} | {k.doc} |")
+    return "\n".join(rows)
+
+
+def _toml(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml(x) for x in v) + "]"
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(markdown(), end="")

@@ -1,0 +1,179 @@
+"""gmsh meshes of every shape: volume of revolution, tags, quality, rank independence, and
+the checks on a user's mesh file."""
+
+import numpy as np
+import pytest
+from conftest import scene_dict
+from mpi4py import MPI
+
+from silo_dolfinx.geometry.mesher import FACET_TAGS, MeshingError, mesh_scene
+from silo_dolfinx.geometry.quality import quality_report
+from silo_dolfinx.scene import load_scene
+
+SHAPES = {
+    "hopper": {"shape": "hopper", "height": 2.64, "top_radius": 1.2, "outlet_radius": 0.1,
+               "element_size": 0.08, "outlet_size_factor": 0.5},
+    "flat_bottom": {"shape": "flat_bottom", "radius": 0.35, "height": 4.0, "outlet_radius": 0.02,
+                    "element_size": 0.05, "outlet_size_factor": 0.4},
+    "bin_hopper_abrupt": {"shape": "bin_hopper", "radius": 0.35, "bin_height": 4.313, "hopper_half_angle": 20.0,
+                          "outlet_radius": 0.1, "element_size": 0.05, "transition_size_factor": 0.4},
+    "bin_hopper_fillet": {"shape": "bin_hopper", "radius": 0.35, "bin_height": 4.313, "hopper_half_angle": 20.0,
+                          "outlet_radius": 0.1, "fillet_radius": 1.0, "element_size": 0.05},
+    "column_converging": {"shape": "column", "base_radius": 0.5, "height": 5.0, "half_angle": 3.0,
+                          "element_size": 0.1},
+    "column_diverging": {"shape": "column", "base_radius": 0.5, "height": 2.0, "half_angle": -10.0,
+                         "element_size": 0.05},
+    "profile": {"shape": "profile", "wall": [[0.15, 0.0], [0.6, 0.9], [0.6, 2.0], [0.5, 3.0]],
+                "outlet_radius": 0.05, "element_size": 0.08},
+    "partial_fill": {"shape": "hopper", "height": 2.64, "top_radius": 1.2, "outlet_radius": 0.1,
+                     "fill_height": 1.5, "element_size": 0.08},
+}
+CASES = [(name, mode) for name in SHAPES for mode in ("structured", "unstructured")]
+
+
+@pytest.mark.parametrize("name,mode", CASES, ids=[f"{n}-{m}" for n, m in CASES])
+def test_mesh_of_every_shape(name, mode, comm):
+    scene = load_scene(scene_dict({**SHAPES[name], "mesh": mode}))
+    sm = mesh_scene(scene, comm)
+    exact = scene.outline.volume()
+    vol = sm.volume_of_revolution()
+    # Acceptance: 0.5 %. Straight pieces are meshed exactly (round-off); only a fillet arc is
+    # approximated by chords, O(h²/R) ~ 1e-5 relative here.
+    assert abs(vol - exact) / exact < 5e-3
+    if "fillet" not in name:
+        assert abs(vol - exact) / exact < 1e-10
+
+    # every tag present, every cell a valid quadrilateral
+    for tag_name in FACET_TAGS:
+        n = comm.allreduce(sm.facets(tag_name).size, op=MPI.SUM)
+        assert n > 0, tag_name
+    assert comm.allreduce(sm.cell_tags.find(1).size, op=MPI.SUM) >= sm.num_cells_global()
+    q = quality_report(sm.mesh)
+    assert q["inverted"] == 0
+    assert q["min_angle_deg"] > 30.0  # no degenerate cell (structured: > 60°, unstructured: > 35°)
+    if mode == "structured":
+        assert q["max_aspect_ratio"] < 4.0
+
+    # wall nodes lie on the analytic wall, and no node lies beyond it
+    x = sm.mesh.geometry.x
+    proj = scene.outline.wall.project(x)
+    wall_nodes = sm.nodes_on("wall")
+    chord = 2e-4 if "fillet" in name else 1e-12  # mid-edge sag of a chord is not a node
+    assert np.all(np.abs(proj.distance[wall_nodes]) < 1e-12)
+    assert proj.distance.min(initial=1.0) > -chord
+    # outlet nodes at z = 0, r ≤ outlet radius; top nodes at the fill height; axis at r = 0
+    ol = scene.outline
+    outlet = x[sm.nodes_on("outlet")]
+    assert np.allclose(outlet[:, 1], 0.0) and np.all(outlet[:, 0] <= ol.outlet_radius + 1e-12)
+    assert np.allclose(x[sm.nodes_on("top"), 1], ol.fill_height)
+    assert np.allclose(x[sm.nodes_on("axis"), 0], 0.0)
+
+    # Same mesh on one rank as on all ranks: cell count and volume.
+    serial = mesh_scene(scene, MPI.COMM_SELF)
+    assert serial.num_cells_global() == sm.num_cells_global()
+    assert abs(serial.volume_of_revolution() - vol) < 1e-12 * vol
+
+
+def test_refinement_near_outlet_and_transition(comm):
+    """Cells at the outlet edge and the transition are as small as asked (within 50 %: the
+    size grades geometrically and cells are counted whole)."""
+    g = SHAPES["bin_hopper_abrupt"]
+    scene = load_scene(scene_dict({**g, "outlet_size_factor": 0.3, "transition_size_factor": 0.3}))
+    sm = mesh_scene(scene, comm)
+    from silo_dolfinx.geometry.quality import cell_corners
+
+    xy = cell_corners(sm.mesh)
+    centres = xy.mean(axis=1)
+    heights = np.ptp(xy[:, :, 1], axis=1)
+    h = g["element_size"]
+    corner = scene.outline.transition_points[0]
+    near_t = np.any(np.linalg.norm(xy - corner, axis=2) < 1e-9, axis=1)  # cells at the corner
+    near_o = np.any(np.linalg.norm(xy - [scene.outline.outlet_radius, 0.0], axis=2) < 1e-9, axis=1)
+    small_t = comm.allreduce(heights[near_t].max(initial=0.0), op=MPI.MAX)
+    small_o = comm.allreduce(heights[near_o].max(initial=0.0), op=MPI.MAX)
+    assert 0 < small_t < 1.5 * 0.3 * h
+    assert 0 < small_o < 1.5 * 0.3 * h
+    far = comm.allreduce(heights[centres[:, 1] > 2.5].max(initial=0.0), op=MPI.MAX)
+    assert abs(far - h) < 0.2 * h
+
+
+def test_ledge_needs_unstructured_mesh(comm):
+    g = {"shape": "profile", "wall": [[0.2, 0.0], [0.5, 1.0], [0.7, 1.0], [0.7, 2.0]], "outlet_radius": 0.2,
+         "element_size": 0.1}
+    with pytest.raises(MeshingError, match='mesh = "unstructured"'):
+        mesh_scene(load_scene(scene_dict(g)), comm)
+    sm = mesh_scene(load_scene(scene_dict({**g, "mesh": "unstructured"})), comm)
+    assert quality_report(sm.mesh)["inverted"] == 0
+
+
+# ------------------------------------------------------------------ user mesh files
+def _write(scene, path, comm):
+    from silo_dolfinx.geometry.mesher import MeshOptions, create_mesh
+
+    create_mesh(scene.outline, MeshOptions.from_geometry(scene.geometry), comm, msh_path=path)
+    comm.barrier()
+
+
+def test_user_mesh_file_round_trip(shared_tmp, comm):
+    g = SHAPES["hopper"]
+    scene = load_scene(scene_dict(g))
+    path = shared_tmp / "hopper.msh"
+    _write(scene, path, comm)
+    again = mesh_scene(load_scene(scene_dict({**g, "mesh_file": str(path)})), comm)
+    assert again.num_cells_global() == mesh_scene(scene, comm).num_cells_global()
+    assert abs(again.volume_of_revolution() - scene.outline.volume()) < 1e-10 * scene.outline.volume()
+
+
+def test_wall_that_crosses_the_material(shared_tmp, comm):
+    scene = load_scene(scene_dict(SHAPES["hopper"]))
+    path = shared_tmp / "hopper.msh"
+    _write(scene, path, comm)
+    narrower = {**SHAPES["hopper"], "top_radius": 1.0, "mesh_file": str(path)}
+    with pytest.raises(MeshingError, match="the wall crosses the material"):
+        mesh_scene(load_scene(scene_dict(narrower)), comm)
+
+
+def test_mesh_that_is_not_a_silo(shared_tmp, comm):
+    """A tagged quad mesh straddling the axis (r < 0) is refused."""
+    path = shared_tmp / "square.msh"
+    if comm.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("square")
+        s = gmsh.model.occ.addRectangle(-0.5, 0.0, 0.0, 1.0, 1.0)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
+        gmsh.model.mesh.generate(2)
+        curves = [c for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)]
+        gmsh.model.addPhysicalGroup(2, [s], 1, "material")
+        for tag, (name, c) in enumerate(zip(("outlet", "wall", "top", "axis"), curves), start=1):
+            gmsh.model.addPhysicalGroup(1, [c], tag, name)
+        gmsh.write(str(path))
+        gmsh.finalize()
+    comm.barrier()
+    g = {**SHAPES["hopper"], "mesh_file": str(path)}
+    with pytest.raises(MeshingError, match="not a silo"):
+        mesh_scene(load_scene(scene_dict(g)), comm)
+
+
+def test_mesh_without_tags_is_refused(shared_tmp, comm):
+    path = shared_tmp / "untagged.msh"
+    if comm.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("u")
+        s = gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 1.0, 1.0)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.model.mesh.generate(2)
+        gmsh.model.addPhysicalGroup(2, [s], 1, "material")
+        gmsh.write(str(path))
+        gmsh.finalize()
+    comm.barrier()
+    with pytest.raises(MeshingError, match="physical groups"):
+        mesh_scene(load_scene(scene_dict({**SHAPES["hopper"], "mesh_file": str(path)})), comm)

@@ -1,0 +1,246 @@
+"""Scene files: every shipped scene is valid, and every class of bad input is refused before
+meshing with one message naming the key, the value, the allowed range and a fix."""
+
+import copy
+
+import pytest
+from conftest import ROOT, SCENES, scene_dict
+
+from silo_dolfinx.scene import SceneError, load_geometry, load_scene
+from silo_dolfinx.scene.schema import markdown
+
+HOPPER = {"shape": "hopper", "height": 2.64, "top_radius": 1.2, "outlet_radius": 0.1}
+DP = {"model": "drucker_prager", "density": 1000.0, "youngs_modulus": 5.5e5, "friction_angle": 30.0,
+      "dilation_angle": 10.0}
+
+
+def refused(scene, overrides=()) -> SceneError:
+    with pytest.raises(SceneError) as e:
+        load_scene(scene, list(overrides))
+    return e.value
+
+
+def assert_names(err: SceneError, key: str, *fragments: str):
+    """The error names ``section.key`` and its message contains each fragment and a fix."""
+    assert key in err.keys, f"{key} not named in: {err}"
+    text = str(err)
+    assert "Fix" in text or "Did you mean" in text, text
+    for f in fragments:
+        assert f in text, f"{f!r} not in: {text}"
+
+
+@pytest.mark.parametrize("path", sorted(SCENES.glob("*.toml")), ids=lambda p: p.stem)
+def test_shipped_scenes_are_valid_and_round_trip(path):
+    scene = load_scene(path)
+    again = load_scene(scene.to_dict())
+    assert again.to_dict() == scene.to_dict()
+    # The resolved TOML is itself a scene that resolves to the same thing.
+    import tomllib
+
+    assert load_scene(tomllib.loads(scene.to_toml())).to_dict() == scene.to_dict()
+
+
+def test_every_targets_case_has_a_scene():
+    names = {p.stem for p in SCENES.glob("*.toml")}
+    wanted = {"hopper_ch4", "hopper_ch4_stiff", "hopper_ch4_smooth", "hopper_ch4_controlled_u0",
+              "hopper_ch4_controlled_u0_2", "hopper_ch4_controlled_u0_4", "hopper_ch4_controlled_u0_10",
+              "hopper_ch4_controlled_u0_100", "hopper_ch3_lagrangian", "hopper_ch3_ale",
+              "column_ch5_FE1", "column_ch5_FE2", "column_ch5_FE3", "column_ch5_FE4", "column_ch5_FE5",
+              "column_ch5_hopper22", "flat_bottom_ch6", "bin_hopper_ch7_abrupt", "bin_hopper_ch7_fillet02",
+              "bin_hopper_ch7_fillet10", "bin_hopper_ch7_fillet30", "bin_hopper_ch7_dynamic",
+              "bin_hopper_ch7_dynamic_2u0", "steep_hopper_ch8_coaxial", "steep_hopper_ch8_noncoaxial"}
+    assert wanted <= names, wanted - names
+    assert any(n.startswith("column_ch5_alpha_m") for n in names)
+    assert any(n.startswith("column_ch5_alpha_p") for n in names)
+
+
+def test_thesis_parameters_in_scenes():
+    s = load_scene(SCENES / "hopper_ch4.toml")
+    assert (s.geometry.height, s.geometry.top_radius, s.geometry.outlet_radius) == (2.64, 1.2, 0.1)
+    assert (s.material.density, s.material.youngs_modulus, s.material.friction_angle) == (1000.0, 5.5e5, 30.0)
+    assert (s.fill.duration, s.store.duration, s.discharge.duration) == (10.0, 2.0, 60.0)
+    assert s.wall.mu == 0.267
+    v = load_scene(SCENES / "bin_hopper_ch7_dynamic.toml")  # inherits through base
+    assert (v.wall.mu_static, v.wall.mu_kinetic, v.wall.decay) == (0.67, 0.3, 2.0)
+    assert v.geometry.hopper_half_angle == 20.0 and v.material.friction_angle == 40.0
+
+
+def test_defaults_and_overrides():
+    s = load_scene(scene_dict(HOPPER), ["material.density=1500", "geometry.shape=hopper",
+                                        "numerics.bulk_viscosity=[0, 0]"])
+    assert s.material.density == 1500.0
+    assert s.numerics.bulk_viscosity == [0.0, 0.0]
+    assert s.geometry.fill_height == 2.64  # derived: full
+    assert s.geometry.element_size == 0.06  # derived: r_max / 20
+    assert s.numerics.time_step_scale == 0.8
+    assert len(s.output.stations) == 10
+
+
+def test_keys_of_another_variant_are_ignored_with_a_warning():
+    d = scene_dict(HOPPER, wall={"friction": "none", "mu": 0.3})
+    s = load_scene(d)
+    assert "mu" not in s.wall and any("mu" in w for w in s.warnings)
+
+
+# ------------------------------------------------------------------ one test per bad-input class
+def test_unknown_key_with_suggestion():
+    err = refused(scene_dict(HOPPER, material={**DP, "densty": 1000.0}))
+    assert_names(err, "material.densty", "unknown key", "Did you mean 'density'")
+
+
+def test_unknown_section():
+    d = scene_dict(HOPPER)
+    d["materail"] = {"x": 1}
+    assert_names(refused(d), "materail.(section)", "unknown section", "Did you mean 'material'")
+
+
+def test_unknown_top_level_key():
+    d = scene_dict(HOPPER)
+    d["tilte"] = "x"
+    assert_names(refused(d), "tilte", "unknown top-level key", "'title'")
+
+
+def test_wrong_type():
+    err = refused(scene_dict(HOPPER, material={**DP, "density": "heavy"}))
+    assert_names(err, "material.density", "'heavy'", "wrong type", "number")
+
+
+def test_boolean_is_not_a_number():
+    assert_names(refused(scene_dict(HOPPER, material={**DP, "density": True})), "material.density", "wrong type")
+
+
+def test_missing_required_key():
+    d = scene_dict(HOPPER, material={k: v for k, v in DP.items() if k != "friction_angle"})
+    assert_names(refused(d), "material.friction_angle", "missing", "drucker_prager", "friction_angle = 30")
+
+
+def test_missing_required_section():
+    d = scene_dict(HOPPER)
+    del d["wall"]
+    assert_names(refused(d), "wall.(section)", "missing section")
+
+
+@pytest.mark.parametrize("value", [-1000.0, 0.0])
+def test_non_positive_density(value):
+    assert_names(refused(scene_dict(HOPPER, material={**DP, "density": value})),
+                 "material.density", f"= {value:g}", "> 0 kg/m³")
+
+
+@pytest.mark.parametrize("nu", [0.5, -1.0, 0.7])
+def test_poisson_ratio_out_of_range(nu):
+    assert_names(refused(scene_dict(HOPPER, material={**DP, "poisson_ratio": nu})),
+                 "material.poisson_ratio", f"= {nu:g}", "(-1, 0.5)")
+
+
+@pytest.mark.parametrize("key,value,text", [("friction_angle", 75.0, "[0, 70)"),
+                                            ("friction_angle", -5.0, "[0, 70)"),
+                                            ("dilation_angle", 40.0, "exceeds friction_angle")])
+def test_angles_out_of_range(key, value, text):
+    assert_names(refused(scene_dict(HOPPER, material={**DP, key: value})), f"material.{key}", text)
+
+
+def test_hopper_half_angle_out_of_range():
+    g = {"shape": "bin_hopper", "radius": 0.35, "bin_height": 4.0, "hopper_half_angle": 90.0, "outlet_radius": 0.05}
+    assert_names(refused(scene_dict(g)), "geometry.hopper_half_angle", "(0, 90)")
+
+
+def test_unknown_choice():
+    assert_names(refused(scene_dict({**HOPPER, "shape": "hoper"})), "geometry.shape", "'hoper'", "'hopper'")
+
+
+@pytest.mark.parametrize("geometry", [
+    {**HOPPER, "outlet_radius": 1.2},
+    {"shape": "flat_bottom", "radius": 0.35, "height": 4.0, "outlet_radius": 0.4},
+    {"shape": "bin_hopper", "radius": 0.35, "bin_height": 4.0, "hopper_half_angle": 20.0, "outlet_radius": 0.35},
+    {"shape": "profile", "wall": [[0.1, 0.0], [0.3, 1.0]], "outlet_radius": 0.2},
+], ids=["hopper", "flat_bottom", "bin_hopper", "profile"])
+def test_outlet_not_narrower_than_silo(geometry):
+    assert_names(refused(scene_dict(geometry)), "geometry.outlet_radius", f"= {geometry['outlet_radius']:g}")
+
+
+def test_fillet_that_does_not_fit():
+    g = {"shape": "bin_hopper", "radius": 0.35, "bin_height": 4.0, "hopper_half_angle": 20.0,
+         "outlet_radius": 0.05, "fillet_radius": 6.0}
+    err = refused(scene_dict(g))
+    # tangent length 6 tan 10° = 1.058 m > hopper wall length 0.3/sin 20° = 0.877 m
+    assert_names(err, "geometry.fillet_radius", "does not fit", "1.058", "fillet_radius < 4.975")
+
+
+def test_profile_not_monotone_in_z():
+    g = {"shape": "profile", "wall": [[0.1, 0.0], [0.5, 1.0], [0.5, 0.8], [0.5, 2.0]], "outlet_radius": 0.1}
+    assert_names(refused(scene_dict(g)), "geometry.wall", "point 2", "not monotone in z")
+
+
+def test_profile_that_self_intersects():
+    # z never decreases, but the horizontal ledge folds back over itself.
+    g = {"shape": "profile", "wall": [[0.1, 0.0], [0.5, 1.0], [0.8, 1.0], [0.6, 1.0], [0.6, 2.0]],
+         "outlet_radius": 0.1, "mesh": "unstructured"}
+    assert_names(refused(scene_dict(g)), "geometry.wall", "intersect")
+
+
+def test_profile_on_the_axis():
+    g = {"shape": "profile", "wall": [[0.1, 0.0], [0.0, 1.0]], "outlet_radius": 0.1}
+    assert_names(refused(scene_dict(g)), "geometry.wall", "r ≤ 0")
+
+
+def test_diverging_column_that_closes():
+    g = {"shape": "column", "base_radius": 0.5, "height": 5.0, "half_angle": -10.0}
+    assert_names(refused(scene_dict(g)), "geometry.half_angle", "closes", "−5.711")
+
+
+def test_fill_above_the_wall():
+    assert_names(refused(scene_dict({**HOPPER, "fill_height": 3.0})), "geometry.fill_height", "= 3", "≤ 2.64")
+
+
+def test_element_size_that_would_explode_the_mesh():
+    err = refused(scene_dict({**HOPPER, "element_size": 1e-4}))
+    assert_names(err, "geometry.element_size", "max_cells")
+
+
+def test_kinetic_friction_above_static():
+    err = refused(scene_dict(HOPPER, wall={"friction": "velocity_dependent", "mu_static": 0.3,
+                                           "mu_kinetic": 0.5, "decay": 2.0}))
+    assert_names(err, "wall.mu_kinetic", "exceeds mu_static")
+
+
+def test_bad_override_syntax_and_unknown_override_key():
+    assert_names(refused(scene_dict(HOPPER), ["material.density"]), "--set", "section.key=value")
+    assert_names(refused(scene_dict(HOPPER), ["material.poisson=0.2"]), "material.poisson",
+                 "Did you mean 'poisson_ratio'")
+
+
+def test_station_outside_the_wall():
+    err = refused(scene_dict(HOPPER, output={"stations": [1.0, 3.0]}))
+    assert_names(err, "output.stations", "3 m", "[0, 2.64]")
+
+
+def test_circular_base(tmp_path):
+    a, b = tmp_path / "a.toml", tmp_path / "b.toml"
+    a.write_text('base = "b.toml"\n')
+    b.write_text('base = "a.toml"\n')
+    assert_names(refused(a), "base", "circular")
+
+
+def test_toml_syntax_error(tmp_path):
+    p = tmp_path / "bad.toml"
+    p.write_text("[geometry\nshape = 'hopper'\n")
+    assert_names(refused(p), "syntax", "bad.toml")
+
+
+def test_all_problems_reported_at_once():
+    d = scene_dict(HOPPER, material={**DP, "density": -1.0, "poisson_ratio": 0.6})
+    err = refused(d)
+    assert {"material.density", "material.poisson_ratio"} <= set(err.keys)
+
+
+def test_geometry_alone_validates():
+    g = load_geometry(copy.deepcopy(HOPPER))
+    assert g["fill_height"] == 2.64
+    with pytest.raises(SceneError):
+        load_geometry({**HOPPER, "height": -1.0})
+
+
+def test_docs_match_schema():
+    """docs/scene.md is generated from the schema; regenerate with
+    `silo schema > docs/scene.md`."""
+    assert (ROOT / "docs" / "scene.md").read_text() == markdown()

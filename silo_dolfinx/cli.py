@@ -2,6 +2,7 @@
 
     silo check SCENE [--set section.key=value ...]     validate, print the resolved scene
     silo mesh SCENE -o meshes/NAME.msh [--show]        write the gmsh mesh (and a PNG of it)
+    silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
     silo schema                                        print the scene reference (Markdown)
 
 Bad input is reported before any meshing or time-stepping, one line per problem naming the
@@ -32,6 +33,11 @@ def _parser() -> argparse.ArgumentParser:
     scene_args(sp)
     sp.add_argument("-o", "--output", required=True, help="output .msh file")
     sp.add_argument("--show", action="store_true", help="also write a PNG of the mesh next to it")
+    sp = sub.add_parser("run", help="run a scene into a results folder")
+    scene_args(sp)
+    sp.add_argument("--out", required=True, help="results folder (created; files are overwritten)")
+    sp.add_argument("--progress", type=float, default=5.0, metavar="SECONDS",
+                    help="seconds between progress lines on rank 0 (default 5)")
     sub.add_parser("schema", help="print the scene file reference (Markdown)")
     return p
 
@@ -48,6 +54,8 @@ def main(argv: list[str] | None = None) -> int:
             return _check(args)
         if args.command == "mesh":
             return _mesh(args)
+        if args.command == "run":
+            return _run(args)
     except SceneError as e:
         _error(str(e))
         return 2
@@ -59,8 +67,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def _user_errors():
     from silo_dolfinx.geometry.mesher import MeshingError
+    from silo_dolfinx.solver import InstabilityError
 
-    return (MeshingError,)
+    return (MeshingError, InstabilityError)
 
 
 def _rank() -> int:
@@ -112,6 +121,21 @@ def _mesh(args) -> int:
               f"inverted {q['inverted']}")
         if args.show:
             print(f"{out.with_suffix('.png')}: picture of the mesh")
+    return 0
+
+
+def _run(args) -> int:
+    from silo_dolfinx.simulation import run
+
+    scene = load_scene(args.scene, args.overrides)
+    if _rank() == 0:
+        for w in scene.warnings:
+            print(f"warning: {w}", file=sys.stderr)
+    summary = run(scene, args.out, progress_every=args.progress)
+    if _rank() == 0:
+        print(f"{args.out}: {summary['status']}; {summary['steps']:,} steps, simulated {summary['simulated_time']:.4g} s "
+              f"in {summary['wall_clock_s']:.1f} s ({summary['steps_per_second']:,.0f} steps/s); energy balance "
+              f"error {100 * summary['energy_balance_error_max']:.3f} % (max)")
     return 0
 
 

@@ -68,6 +68,16 @@ class Outline:
                 rmax = max(rmax, float(xy[xy[:, 1] <= self.fill_height, 0].max(initial=0)))
         return rmax
 
+    def contact_wall(self, extension: float | None = None) -> Wall:
+        """The wall for contact: continued straight beyond its top (default by half the silo's
+        height), so material at the top corner always has a wall beside it."""
+        ext = 0.5 * max(self.height, self.r_max) if extension is None else extension
+        last = self.wall.pieces[-1]
+        end = np.asarray(last.end, float)
+        t = end - self.wall.point_at(self.wall.length - 1e-6 * self.wall.length)[0]
+        t /= np.linalg.norm(t)
+        return Wall(self.wall.pieces + [Segment(tuple(end), tuple(end + ext * t))])
+
     def volume(self, z_top: float | None = None) -> float:
         """Exact volume of revolution of the material below ``z_top`` (default: the fill)."""
         return math.pi * self._integral_r2(self.fill_height if z_top is None else z_top)

@@ -261,6 +261,9 @@ FILL = Section(
         F("duration", 10.0, "s", "Duration of the filling stage.", **NONNEG),
         F("ramp_fraction", 0.5, "-", "Fraction of each layer's (or the ramp's) time over which "
           "its gravity is ramped smoothly; the rest lets it settle.", lo=0.0, hi=1.0, lo_open=True),
+        F("damping", 0.0, "-", "Fraction of critical damping of the fill's fundamental vertical mode, "
+          "applied as mass-proportional damping during filling and storage only (0 = none, as the "
+          "thesis).", lo=0.0, hi=2.0),
     ),
     selector="method",
     variants={

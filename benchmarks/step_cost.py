@@ -1,0 +1,106 @@
+"""Cost of one explicit elastic-plastic step, per element and per phase.
+
+    python benchmarks/step_cost.py            # 8k and 32k cells, 1 and 2 ranks, prints a table
+
+The ch. 4 hopper (Drucker-Prager, wall friction 0.267) starts from a geostatic stress state
+under full gravity, so the return map, the wall contact and the bulk viscosity all work as in
+a real run. After a warm-up (JIT compilation, first-touch), blocks of steps are timed and
+the median block is reported: µs per element-step per core (wall-clock × ranks / (cells ×
+steps)), the split into the phases of the step, and the parallel efficiency
+(T1 / (2 T2)). The 2-rank numbers come from this script relaunched under mpirun.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import silo_dolfinx  # noqa: F401
+
+PHASES = ("update", "strain", "constitutive", "dt", "assembly")
+SIZES = {"8k": 0.024, "32k": 0.012}  # element sizes of the ch. 4 hopper giving ~8.4k / ~33k cells
+
+
+def measure(element_size: float, blocks: int, steps: int) -> dict:
+    from mpi4py import MPI
+
+    from silo_dolfinx.geometry.mesher import mesh_scene
+    from silo_dolfinx.scene import load_scene
+    from silo_dolfinx.simulation import SiloModel
+
+    comm = MPI.COMM_WORLD
+    here = Path(__file__).resolve().parents[1]
+    scene = load_scene(here / "demos" / "scenes" / "hopper_ch4.toml",
+                       [f"geometry.element_size={element_size}", "fill.method=\"k0\""])
+    model = SiloModel(scene, mesh_scene(scene, comm))
+    s = model.solver
+    model.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
+    model.set_geostatic_stress(0.4)
+    for _ in range(steps):  # warm-up
+        s.step()
+    cells = comm.allreduce(s.n_cells_owned, op=MPI.SUM)
+    per_block, phases = [], []
+    for _ in range(blocks):
+        s.profile(True)
+        comm.barrier()
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            s.step()
+        comm.barrier()
+        per_block.append(time.perf_counter() - t0)
+        local = np.array([s.timings[k] for k in PHASES])
+        worst = np.empty_like(local)
+        comm.Allreduce(local, worst, op=MPI.MAX)
+        phases.append(worst)
+    k = int(np.argsort(per_block)[len(per_block) // 2])
+    plastic = comm.allreduce(int(np.count_nonzero(s.state["eqps"] > 0)), op=MPI.SUM)
+    return {"cells": cells, "ranks": comm.size, "seconds_per_step": per_block[k] / steps,
+            "phases": (phases[k] / steps).tolist(), "plastic_points": plastic,
+            "quadrature_points": cells * s.nq}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--blocks", type=int, default=5)
+    ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--sizes", nargs="+", default=list(SIZES))
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    results = [measure(SIZES[n], args.blocks, args.steps) | {"case": n} for n in args.sizes]
+    from mpi4py import MPI
+
+    if args.worker:
+        if MPI.COMM_WORLD.rank == 0:
+            print("JSON" + json.dumps(results))
+        return
+    mpirun = Path(sys.executable).with_name("mpirun")
+    cmd = [str(mpirun) if mpirun.exists() else "mpirun", "-n", "2", sys.executable, __file__, "--worker",
+           "--blocks", str(args.blocks), "--steps", str(args.steps), "--sizes", *args.sizes]
+    out = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy(), check=True).stdout
+    results += json.loads(next(line for line in out.splitlines() if line.startswith("JSON"))[4:])
+
+    print(f"Explicit elastic-plastic step, ch. 4 hopper, Q1 2×2 quadrature; median of {args.blocks} blocks "
+          f"of {args.steps} steps")
+    head = f"{'case':>5} {'cells':>7} {'ranks':>5} {'steps/s':>8} {'µs/elem-step/core':>18} " + \
+        " ".join(f"{p:>12}" for p in PHASES) + f" {'efficiency':>10}"
+    print(head)
+    serial = {r["case"]: r for r in results if r["ranks"] == 1}
+    for r in results:
+        us = r["seconds_per_step"] * r["ranks"] / r["cells"] * 1e6
+        split = " ".join(f"{ph * r['ranks'] / r['cells'] * 1e6:12.3f}" for ph in r["phases"])
+        eff = serial[r["case"]]["seconds_per_step"] / (r["ranks"] * r["seconds_per_step"])
+        print(f"{r['case']:>5} {r['cells']:7d} {r['ranks']:5d} {1 / r['seconds_per_step']:8.0f} {us:18.3f} {split} "
+              f"{100 * eff:9.0f}%")
+    print("phases in µs per element-step per core; plastic points at the end: "
+          + ", ".join(f"{r['case']}/{r['ranks']}: {r['plastic_points']}/{r['quadrature_points']}" for r in results))
+
+
+if __name__ == "__main__":
+    main()

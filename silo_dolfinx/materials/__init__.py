@@ -1,0 +1,22 @@
+"""Material laws behind one interface (:class:`~silo_dolfinx.materials.base.Material`).
+
+``make_material(scene.material)`` builds the law a scene selects; each law lives in its
+own module and is compiled with numba.
+"""
+
+from silo_dolfinx.materials.base import Material
+from silo_dolfinx.materials.drucker_prager import DruckerPrager
+from silo_dolfinx.materials.elastic import Elastic
+
+
+def make_material(m) -> Material:
+    """The material of a resolved [material] section."""
+    if m["model"] == "elastic":
+        return Elastic(m["youngs_modulus"], m["poisson_ratio"], m["density"])
+    if m["model"] == "drucker_prager":
+        return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
+                             m["dilation_angle"], m["cohesion"])
+    raise ValueError(f"[material] model = {m['model']!r} is not available in this version")
+
+
+__all__ = ["DruckerPrager", "Elastic", "Material", "make_material"]

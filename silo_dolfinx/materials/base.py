@@ -1,0 +1,74 @@
+"""The material interface: state arrays in, state arrays out, vectorised over quadrature points.
+
+A material is an isotropic hypo-elastic(-plastic) law for the objective stress increment
+of an axisymmetric point. Arrays are (n, 4) stress/strain in (rr, zz, θθ, rz) order with
+engineering shear strain; ``state`` holds the extra history variables the law declares in
+``state_fields`` (name -> components), and only those are allocated by the solver.
+
+``update`` takes the stress already rotated to the end of the step (Jaumann) and the
+strain increment, writes the new stress and state, and returns the plastic dissipation
+Σ σ : Δε_p dV over the points (J). Sign convention: tension positive; the mean pressure
+p = −tr σ/3 is positive in compression, as in the thesis.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+
+class Material:
+    name = "material"
+    plastic = False
+    state_fields: dict[str, int] = {}
+
+    def __init__(self, youngs_modulus: float, poisson_ratio: float, density: float):
+        E, nu = youngs_modulus, poisson_ratio
+        self.E, self.nu, self.density = E, nu, density
+        self.K = E / (3.0 * (1.0 - 2.0 * nu))
+        self.G = E / (2.0 * (1.0 + nu))
+
+    @property
+    def wave_modulus(self) -> float:
+        """P-wave (constrained) modulus λ + 2μ = K + 4G/3 (Pa)."""
+        return self.K + 4.0 * self.G / 3.0
+
+    def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
+        raise NotImplementedError  # pragma: no cover - every concrete law implements it
+
+    def elastic_energy(self, sig: np.ndarray, dV: np.ndarray) -> float:
+        """Stored elastic energy Σ ½ σ:C⁻¹:σ dV (J)."""
+        return float(_elastic_energy(sig, dV, self.K, self.G))
+
+
+@numba.njit(cache=True)
+def _elastic_energy(sig, dV, K, G):
+    e = 0.0
+    for i in range(sig.shape[0]):
+        s = sig[i]
+        m = (s[0] + s[1] + s[2]) / 3.0
+        j2 = 0.5 * ((s[0] - m) ** 2 + (s[1] - m) ** 2 + (s[2] - m) ** 2) + s[3] ** 2
+        e += dV[i] * (0.5 * m * m / K + 0.5 * j2 / G)
+    return e
+
+
+@numba.njit(cache=True)
+def elastic_trial(sig, de, K, G, out):
+    """out = sig + D : de for one point (isotropic, engineering shear)."""
+    lam = K - 2.0 * G / 3.0
+    tr = de[0] + de[1] + de[2]
+    out[0] = sig[0] + lam * tr + 2.0 * G * de[0]
+    out[1] = sig[1] + lam * tr + 2.0 * G * de[1]
+    out[2] = sig[2] + lam * tr + 2.0 * G * de[2]
+    out[3] = sig[3] + G * de[3]
+
+
+@numba.njit(cache=True)
+def invariants(s):
+    """(p, q, deviator) with p = −tr σ/3 (compression +) and q = √(3 J2)."""
+    m = (s[0] + s[1] + s[2]) / 3.0
+    d0, d1, d2, d3 = s[0] - m, s[1] - m, s[2] - m, s[3]
+    j2 = 0.5 * (d0 * d0 + d1 * d1 + d2 * d2) + d3 * d3
+    return -m, math.sqrt(3.0 * j2), d0, d1, d2, d3

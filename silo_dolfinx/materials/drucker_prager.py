@@ -1,0 +1,127 @@
+"""Elastic-perfectly plastic Drucker-Prager, non-associated, in the thesis' convention.
+
+Yield      F = q − p tan β − d ≤ 0          (q = √(3 J2), p = −tr σ/3, compression +)
+Potential  G = q − p tan ψ                  (ψ ≤ β; ψ = β is associated)
+
+Return mapping (exact for this linear cone; de Souza Neto, Perić & Owen 2008, §8.3):
+with the elastic trial (p*, q*, s*), the flow ∂G/∂σ = (3/2) s/q + (tan ψ/3) I gives
+
+    q = q* − 3G Δλ,   p = p* + K tan ψ Δλ,   Δλ = F* / (3G + K tan β tan ψ),
+
+valid while q ≥ 0. Otherwise the trial lies beyond the apex and the stress returns to the
+apex p = −d/tan β, q = 0. Δλ is also the equivalent (deviatoric) plastic strain increment;
+the plastic volume change is tan ψ Δλ (dilation for ψ > 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from silo_dolfinx.materials.base import Material, elastic_trial, invariants
+
+
+class DruckerPrager(Material):
+    name = "drucker_prager"
+    plastic = True
+    state_fields = {"eqps": 1}  # equivalent plastic strain
+
+    def __init__(self, youngs_modulus, poisson_ratio, density, friction_angle, dilation_angle, cohesion):
+        super().__init__(youngs_modulus, poisson_ratio, density)
+        self.friction_angle, self.dilation_angle, self.cohesion = friction_angle, dilation_angle, cohesion
+        self.tan_beta = math.tan(math.radians(friction_angle))
+        self.tan_psi = math.tan(math.radians(dilation_angle))
+
+    def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
+        return float(_update(sig, deps, state_old["eqps"], self.K, self.G, self.tan_beta, self.tan_psi,
+                             self.cohesion, sig_new, state_new["eqps"], dV))
+
+    def yield_function(self, sig: np.ndarray) -> np.ndarray:
+        """F(σ) for an (n, 4) array (≤ 0 admissible)."""
+        out = np.empty(sig.shape[0])
+        for i in range(sig.shape[0]):
+            p, q, *_ = invariants(sig[i])
+            out[i] = q - p * self.tan_beta - self.cohesion
+        return out
+
+
+@numba.njit(cache=True)
+def return_map(s_trial, K, G, tanb, tanpsi, d, out):
+    """Return one trial stress to the yield surface; returns (Δλ, apex?)."""
+    p, q, d0, d1, d2, d3 = invariants(s_trial)
+    f = q - p * tanb - d
+    if f <= 0.0:
+        out[:] = s_trial
+        return 0.0, False
+    dlam = f / (3.0 * G + K * tanb * tanpsi)
+    if 3.0 * G * dlam <= q:
+        qn = q - 3.0 * G * dlam
+        pn = p + K * tanpsi * dlam
+        k = qn / q
+        out[0] = k * d0 - pn
+        out[1] = k * d1 - pn
+        out[2] = k * d2 - pn
+        out[3] = k * d3
+        return dlam, False
+    # apex: q = 0 on the yield surface (tan β > 0 here, else the cone return is always valid)
+    pa = -d / tanb
+    out[0] = -pa
+    out[1] = -pa
+    out[2] = -pa
+    out[3] = 0.0
+    return dlam, True
+
+
+@numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
+def _update(sig, deps, eqps, K, G, tanb, tanpsi, d, sig_new, eqps_new, dV):
+    """The return map of :func:`return_map` over all points, written out in scalars (the
+    hot loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p."""
+    diss = 0.0
+    lam = K - 2.0 * G / 3.0
+    two_g = 2.0 * G
+    denom = 3.0 * G + K * tanb * tanpsi
+    c = lam / (3.0 * lam + 2.0 * G)
+    for i in range(sig.shape[0]):
+        e0, e1, e2, e3 = deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3]
+        tr = e0 + e1 + e2
+        t0 = sig[i, 0] + lam * tr + two_g * e0
+        t1 = sig[i, 1] + lam * tr + two_g * e1
+        t2 = sig[i, 2] + lam * tr + two_g * e2
+        t3 = sig[i, 3] + G * e3
+        m = (t0 + t1 + t2) * (1.0 / 3.0)
+        d0, d1, d2 = t0 - m, t1 - m, t2 - m
+        q = math.sqrt(1.5 * (d0 * d0 + d1 * d1 + d2 * d2) + 3.0 * t3 * t3)
+        p = -m
+        f = q - p * tanb - d
+        if f <= 0.0:
+            sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = t0, t1, t2, t3
+            eqps_new[i] = eqps[i]
+            continue
+        dlam = f / denom
+        if 3.0 * G * dlam <= q:  # return to the cone
+            qn = q - 3.0 * G * dlam
+            pn = p + K * tanpsi * dlam
+            k = qn / q
+            s0, s1, s2, s3 = k * d0 - pn, k * d1 - pn, k * d2 - pn, k * t3
+            eqps_new[i] = eqps[i] + dlam
+            apex = False
+        else:  # return to the apex p = −d/tan β, q = 0
+            pa = -d / tanb
+            s0, s1, s2, s3 = -pa, -pa, -pa, 0.0
+            apex = True
+        sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0, s1, s2, s3
+        # plastic strain Δε_p = C⁻¹ (σ_trial − σ_new) and its dissipation σ_new : Δε_p
+        r0, r1, r2, r3 = t0 - s0, t1 - s1, t2 - s2, t3 - s3
+        rt = r0 + r1 + r2
+        p0 = (r0 - c * rt) / two_g
+        p1 = (r1 - c * rt) / two_g
+        p2 = (r2 - c * rt) / two_g
+        p3 = r3 / G
+        diss += dV[i] * (s0 * p0 + s1 * p1 + s2 * p2 + s3 * p3)
+        if apex:
+            pm = (p0 + p1 + p2) * (1.0 / 3.0)
+            eqps_new[i] = eqps[i] + math.sqrt(2.0 / 3.0 * ((p0 - pm) ** 2 + (p1 - pm) ** 2 + (p2 - pm) ** 2
+                                                           + 0.5 * p3 * p3))
+    return diss

@@ -1,0 +1,167 @@
+"""The results folder: one run, everything it produced, written as it goes.
+
+    results/NAME/
+      scene.toml              the resolved scene (every default filled in)
+      summary.json            status (running | completed | failed), key numbers, stages
+      energy.csv              t, stage, energy terms, balance error
+      wall_history.csv        t, station, s, r, z, p_n, p_s, slip_velocity (at the history rate)
+      wall_profile_<stage>.csv  s, r, z, p_n, p_s, slip_velocity, in_contact (end of each stage)
+      outlet.csv              t, mass_flow_rate, discharged_mass, mean_outlet_velocity (discharge)
+      fields/nodes.bp, fields/cells.bp   VTX (ParaView): velocity, displacement; stress, p, q, q/p, ...
+      mesh.png, *.png         pictures
+
+Rank 0 writes the CSV and JSON files; every row is flushed when written and summary.json is
+replaced atomically, so a crash leaves a readable partial result. Pressures are in Pa,
+heights in m, times in s, energies in J.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+
+class CsvSeries:
+    """A CSV file written row by row (rank 0 only), flushed after each row."""
+
+    def __init__(self, path: Path, columns: list[str], active: bool):
+        self.path, self.columns, self.active = path, columns, active
+        self._f = None
+        if active:
+            self._f = open(path, "w", newline="")  # noqa: SIM115 - kept open for incremental rows
+            self._w = csv.writer(self._f)
+            self._w.writerow(columns)
+            self._f.flush()
+
+    def write(self, *rows) -> None:
+        if not self.active:
+            return
+        for row in rows:
+            self._w.writerow([_fmt(x) for x in row])
+        self._f.flush()
+
+    def close(self) -> None:
+        if self._f is not None:
+            self._f.close()
+            self._f = None
+
+
+def _fmt(x):
+    if isinstance(x, float):
+        return repr(x) if math.isfinite(x) else ""
+    return x
+
+
+class Results:
+    """Writer of one results folder (collective: create on every rank)."""
+
+    def __init__(self, folder: str | Path, scene, comm):
+        self.folder = Path(folder)
+        self.comm = comm
+        self.root = comm.rank == 0
+        if self.root:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            (self.folder / "scene.toml").write_text(scene.to_toml())
+        comm.barrier()
+        self.scene = scene
+        self.started = time.time()
+        self.summary: dict[str, Any] = {
+            "status": "running",
+            "title": scene.title,
+            "scene": str(scene.source) if scene.source else None,
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S"),
+            "ranks": comm.size,
+            "stages": [],
+            "warnings": list(scene.warnings),
+        }
+        self._series: dict[str, CsvSeries] = {}
+        self.write_summary()
+
+    def path(self, name: str) -> Path:
+        return self.folder / name
+
+    def series(self, name: str, columns: list[str]) -> CsvSeries:
+        if name not in self._series:
+            self._series[name] = CsvSeries(self.folder / name, columns, self.root)
+        return self._series[name]
+
+    def write_rows(self, name: str, columns: list[str], rows) -> None:
+        """A whole small CSV at once (e.g. a wall profile)."""
+        s = CsvSeries(self.folder / name, columns, self.root)
+        s.write(*rows)
+        s.close()
+
+    def update(self, **items) -> None:
+        self.summary.update(items)
+        self.write_summary()
+
+    def write_summary(self) -> None:
+        if not self.root:
+            return
+        self.summary["wall_clock_s"] = round(time.time() - self.started, 3)
+        tmp = self.folder / ".summary.json.tmp"
+        tmp.write_text(json.dumps(self.summary, indent=2, default=_json_default))
+        os.replace(tmp, self.folder / "summary.json")
+
+    def finish(self, status: str, error: str | None = None) -> None:
+        self.summary["status"] = status
+        if error:
+            self.summary["error"] = error
+        for s in self._series.values():
+            s.close()
+        self.write_summary()
+
+
+def _json_default(o):
+    try:
+        import numpy as np
+
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+    except ImportError:  # pragma: no cover
+        pass
+    return str(o)
+
+
+class Progress:
+    """Progress lines on rank 0: stage, simulated time, steps/s, ETA (every ``every`` seconds)."""
+
+    def __init__(self, comm, total_time: float, every: float = 5.0, stream=None):
+        import sys
+
+        self.root = comm.rank == 0
+        self.total = total_time
+        self.every = every
+        self.stream = stream or sys.stderr
+        self._t0 = time.time()
+        self._last = self._t0
+        self._sim0 = None
+        self._steps0 = 0
+
+    def __call__(self, stage: str, t: float, steps: int, dt: float, force: bool = False) -> None:
+        now = time.time()
+        if self._sim0 is None:
+            self._sim0, self._steps0 = t, steps
+        if not self.root or (not force and now - self._last < self.every):
+            return
+        self._last = now
+        elapsed = now - self._t0
+        rate = (steps - self._steps0) / max(elapsed, 1e-9)
+        sim_rate = (t - self._sim0) / max(elapsed, 1e-9)
+        eta = (self.total - t) / sim_rate if sim_rate > 0 else float("inf")
+        print(f"[{stage}] t = {t:.4g} / {self.total:.4g} s | step {steps:,} | Δt {dt:.3g} s | "
+              f"{rate:,.0f} steps/s | ETA {_hms(eta)}", file=self.stream, flush=True)
+
+
+def _hms(s: float) -> str:
+    if not math.isfinite(s):
+        return "?"
+    s = int(s)
+    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"

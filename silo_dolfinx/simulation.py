@@ -1,0 +1,455 @@
+"""A scene, run: mesh, silo model, stages (fill -> store -> discharge), outputs.
+
+The silo model (:class:`SiloModel`) puts the boundary conditions of a silo on the generic
+explicit solver:
+
+* the axis r = 0: v_r = 0;
+* the wall: kinematic contact with the analytic wall, continued beyond its top, with the
+  scene's friction law; while the outlet is closed, a *gate* piece from the axis to the
+  outlet edge is the first piece of the same contact wall (smooth, rough = wall law, or
+  fixed), so the closed outlet is a contact surface like the others;
+* gravity on the active cells, and a top surcharge on the top surface if asked.
+
+Stages, each switching only the effects the scene asks for:
+
+fill
+    ``layers``: N horizontal layers by cell centroid; layer k is activated stress-free at
+    k·T/N and its gravity ramped with a smooth step over ``ramp_fraction`` of its interval
+    (the thesis ch. 3.4.1, 4.2.2); inactive layers are not integrated at all.
+    ``ramp``: all cells, gravity ramped smoothly. ``k0``: geostatic stress, no stage.
+store
+    closed outlet, full gravity; ends at ``duration`` or once kinetic energy falls below
+    ``kinetic_energy_tol`` × the work of gravity.
+discharge
+    ``free``: the gate is removed at once; ``controlled``: the outlet nodes move down at
+    u(t) = u0/2 (1 − cos(π t/T)) then u0 (eq. 3-14).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from silo_dolfinx.contact import COULOMB, NONE, STICK, FrictionLaw, WallContact
+from silo_dolfinx.geometry.mesher import FACET_TAGS, SiloMesh, mesh_scene
+from silo_dolfinx.geometry.wall import Segment, Wall
+from silo_dolfinx.materials import make_material
+from silo_dolfinx.output import Progress, Results
+from silo_dolfinx.solver import ExplicitSolver, InstabilityError, Numerics, VelocityConstraint
+
+
+def smooth_step(x: float) -> float:
+    """Abaqus' smooth step: 0 -> 1 on [0, 1] with zero first and second derivatives at both ends."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+
+
+def ramp_velocity(u0: float, ramp_time: float):
+    """Eq. 3-14: u(t) = u0/2 (1 − cos(π t/T)) for t < T, then u0."""
+    def u(t: float) -> float:
+        if ramp_time <= 0.0 or t >= ramp_time:
+            return u0
+        return 0.5 * u0 * (1.0 - math.cos(math.pi * max(t, 0.0) / ramp_time))
+
+    return u
+
+
+class SiloModel:
+    """A scene's silo on the explicit solver: walls, gate, axis, loads, layers."""
+
+    def __init__(self, scene, sm: SiloMesh):
+        self.scene = scene
+        self.sm = sm
+        self.outline = sm.outline
+        self.material = make_material(scene.material)
+        self.solver = ExplicitSolver(sm.mesh, self.material, Numerics.from_scene(scene),
+                                     gravity=scene.loads.gravity)
+        s = self.solver
+        owned = lambda nodes: nodes[s.node_dof[nodes] < s.n_owned]  # noqa: E731
+        self.wall_nodes = owned(sm.nodes_on("wall"))
+        self.outlet_nodes = owned(sm.nodes_on("outlet"))
+        self.axis_dofs = s.node_dof[sm.nodes_on("axis")]
+        self.outlet_dofs_all = s.node_dof[sm.nodes_on("outlet")]
+        s.constraints.append(VelocityConstraint(self.axis_dofs, 0))
+        self.wall_law = FrictionLaw.from_wall(scene.wall)
+        self.contact_wall_open = self.outline.contact_wall()
+        self.outlet_open = False
+        self._set_contact(closed=True)
+        # Damping (fill and store only): fraction of critical of the fundamental vertical mode.
+        c = math.sqrt(self.material.wave_modulus / self.material.density)
+        self.fill_damping = 2.0 * scene.fill.damping * math.pi * c / (2.0 * self.outline.fill_height)
+        self._surcharge_vec = None
+        if scene.loads.top_surcharge > 0.0:
+            self._surcharge_vec = self._surcharge_force(scene.loads.top_surcharge)
+
+    # ------------------------------------------------------------------ walls
+    def _set_contact(self, closed: bool) -> None:
+        """Wall contact for the wall nodes; while closed, a gate contact for the outlet nodes.
+
+        Two contact sets applied in turn (gate, then wall) rather than one chain, so a node at
+        the outlet edge takes the floor reaction from the gate and the wall reaction from the
+        wall, and each surface reports its own force."""
+        s = self.solver
+        wall = self.contact_wall_open
+        self.contact = WallContact(wall, self.wall_nodes, s.node_dof[self.wall_nodes], [self.wall_law] * len(wall.pieces))
+        contacts = [self.contact]
+        if closed:
+            r0 = self.outline.outlet_radius
+            gate_law = {"smooth": FrictionLaw(NONE), "rough": self.wall_law,
+                        "fixed": FrictionLaw(COULOMB, mu=STICK)}[self.scene.discharge.gate]
+            # the gate reaches past the axis and the outlet edge, so its nodes are inside it
+            gate = Wall([Segment((-0.5 * r0, 0.0), (1.5 * r0, 0.0))])
+            self.gate = WallContact(gate, self.outlet_nodes, s.node_dof[self.outlet_nodes], [gate_law])
+            contacts.insert(0, self.gate)
+        s.contacts[:] = contacts
+        # Nodes whose velocity is prescribed are driven and take no part in contact. (The axis
+        # constraint v_r = 0 is compatible: the gate and floors it meets are horizontal.)
+        for c in s.constraints:
+            if c.value is not None:
+                for contact in contacts:
+                    contact.exclude(c.dofs)
+
+    def open_outlet(self) -> None:
+        """Remove the gate (free discharge) or drive the outlet (controlled discharge)."""
+        d = self.scene.discharge
+        self.outlet_open = True
+        if d.mode == "controlled":
+            u = ramp_velocity(d.velocity, d.ramp_time)
+            t0 = self.solver.t
+            self.solver.constraints.append(
+                VelocityConstraint(self.outlet_dofs_all, 1, lambda t: -u(t - t0)))
+        self._set_contact(closed=False)
+
+    # ------------------------------------------------------------------ loads
+    def _surcharge_force(self, pressure: float) -> np.ndarray:
+        from dolfinx import fem, la
+
+        p = fem.Constant(self.sm.mesh, float(pressure))
+        form = self.solver.forms.surcharge_form(self.sm.facet_tags, FACET_TAGS["top"], p)
+        b = fem.assemble_vector(form)
+        b.scatter_reverse(la.InsertMode.add)
+        b.scatter_forward()
+        return b.array.reshape(-1, 2).copy()
+
+    def layers(self) -> list[np.ndarray]:
+        """Owned cells of each filling layer, bottom first (by initial centroid height)."""
+        n = self.scene.fill.layers if self.scene.fill.method == "layers" else 1
+        from silo_dolfinx.geometry.quality import cell_corners
+
+        zc = cell_corners(self.sm.mesh)[:, :, 1].mean(axis=1)
+        k = np.minimum((zc / self.outline.fill_height * n).astype(int), n - 1)
+        return [np.nonzero(k == i)[0].astype(np.int32) for i in range(n)]
+
+    def activate(self, cells: np.ndarray, new_cells: np.ndarray | None, t0: float, ramp_time: float,
+                 last: bool) -> None:
+        """Integrate over ``cells``; ramp the gravity of ``new_cells`` from t0 (others: full)."""
+        s = self.solver
+        s.set_active_cells(cells)
+        s.loads.clear()
+        amp = (lambda t: smooth_step((t - t0) / ramp_time)) if ramp_time > 0 else (lambda t: 1.0)
+        comm = self.sm.comm
+        old = cells if new_cells is None else np.setdiff1d(cells, new_cells)
+        n_old = comm.allreduce(old.size if new_cells is not None else 0, op=MPI.SUM)  # global decisions:
+        if n_old == 0:                                                              # every rank takes
+            s.add_gravity(amplitude=amp)                                            # the same branch
+        else:
+            s.add_gravity(old.astype(np.int32))
+            if comm.allreduce(new_cells.size, op=MPI.SUM) > 0:
+                s.add_gravity(new_cells, amp)
+        if last and self._surcharge_vec is not None:
+            s.add_nodal_force(self._surcharge_vec, amp, "surcharge")
+
+    def set_geostatic_stress(self, k0: float) -> None:
+        """σ_zz = −(ρ g (H − z) + q), σ_rr = σ_θθ = k0 σ_zz at every quadrature point."""
+        s = self.solver
+        xq = s.quadrature_points()
+        H = self.outline.fill_height
+        rho, g = self.material.density, s.gravity
+        szz = -(rho * g * (H - xq[:, 1]) + self.scene.loads.top_surcharge)
+        s.sig[:, 0] = k0 * szz
+        s.sig[:, 1] = szz
+        s.sig[:, 2] = k0 * szz
+        s.sig[:, 3] = 0.0
+        s.refresh_force()
+
+    # ------------------------------------------------------------------ wall output
+    def wall_state(self) -> dict[str, np.ndarray] | None:
+        """Per wall node (gathered on rank 0, sorted by arclength): s, r, z, p_n, p_s, slip."""
+        from dolfinx import fem, la
+
+        s = self.solver
+        c = self.contact
+        if not hasattr(self, "_area_form"):
+            self._area_form = s.forms.tributary_area_form(self.sm.facet_tags, FACET_TAGS["wall"])
+            self._area = la.vector(s.V.dofmap.index_map, 2)
+        self._area.array[:] = 0.0
+        fem.assemble_vector(self._area.array, self._area_form)
+        self._area.scatter_reverse(la.InsertMode.add)
+        area = self._area.array.reshape(-1, 2)[c.dofs, 0]
+        on_wall = area > 0
+        x = self.sm.mesh.geometry.x[c.nodes]
+        a = np.where(on_wall, area, 1.0)
+        cols = np.column_stack([c.s, x[:, 0], x[:, 1], c.normal_force / a, c.shear_force / a,
+                                c.slip_velocity, c.in_contact.astype(float)])[on_wall]
+        parts = self.sm.comm.gather(cols, root=0)
+        if parts is None:
+            return None
+        allc = np.concatenate(parts)
+        allc = allc[np.argsort(allc[:, 0])]
+        return dict(zip(("s", "r", "z", "p_n", "p_s", "slip_velocity", "in_contact"), allc.T))
+
+
+class Recorder:
+    """Time histories, profiles and fields of a running model into a :class:`Results` folder."""
+
+    ENERGY_COLUMNS = ["t", "stage", "kinetic", "elastic", "plastic", "viscous", "damping", "gravity_work",
+                      "external_work", "contact_work", "balance", "relative_error"]
+    WALL_COLUMNS = ["t", "station", "s", "r", "z", "p_n", "p_s", "slip_velocity"]
+    PROFILE_COLUMNS = ["s", "r", "z", "p_n", "p_s", "slip_velocity", "in_contact"]
+
+    def __init__(self, model: SiloModel, results: Results):
+        self.model = model
+        self.results = results
+        out = model.scene.output
+        self.dt_history = 1.0 / out.history_rate
+        self.dt_fields = out.field_interval
+        self.next_history = 0.0
+        self.next_fields = 0.0
+        wall = model.outline.wall
+        st = np.asarray(out.stations, float)
+        self.station_s = wall.s_at_height(st) if out.station_coordinate == "z" else st
+        self.energy_csv = results.series("energy.csv", self.ENERGY_COLUMNS)
+        self.wall_csv = results.series("wall_history.csv", self.WALL_COLUMNS)
+        self.max_abs_balance = 0.0  # largest |balance| seen, J
+        self._last_t = None
+        self._fields = None
+
+    def maybe(self, stage: str) -> None:
+        t = self.model.solver.t
+        if t + 1e-12 >= self.next_history:
+            self.history(stage)
+            while self.next_history <= t + 1e-12:
+                self.next_history += self.dt_history
+        if t + 1e-12 >= self.next_fields:
+            self.fields()
+            while self.next_fields <= t + 1e-12:
+                self.next_fields += self.dt_fields
+
+    def history(self, stage: str) -> None:
+        s = self.model.solver
+        if s.t == self._last_t:
+            return  # a stage end that coincides with a periodic sample
+        self._last_t = s.t
+        s.check_finite()  # nothing non-finite is ever written
+        e = s.global_energy()
+        err = e.relative_error(s.energy_scale)
+        self.max_abs_balance = max(self.max_abs_balance, abs(e.balance))
+        self.energy_csv.write([s.t, stage, e.kinetic, e.elastic, e.plastic, e.viscous, e.damping, e.gravity,
+                               e.external, e.contact, e.balance, err])
+        w = self.model.wall_state()
+        if w is not None and w["s"].size:
+            rows = []
+            for k, ss in enumerate(self.station_s):
+                vals = [float(np.interp(ss, w["s"], w[name])) for name in ("r", "z", "p_n", "p_s", "slip_velocity")]
+                rows.append([s.t, k, float(ss), *vals])
+            self.wall_csv.write(*rows)
+
+    def profile(self, stage: str) -> None:
+        w = self.model.wall_state()
+        if w is not None:
+            rows = np.column_stack([w[k] for k in self.PROFILE_COLUMNS]).tolist()
+            self.results.write_rows(f"wall_profile_{stage}.csv", self.PROFILE_COLUMNS, rows)
+
+    def fields(self) -> None:
+        fw = self._fields or FieldWriter(self.model, self.results.path("fields"))
+        self._fields = fw
+        fw.write(self.model.solver.t)
+
+    def close(self) -> None:
+        if self._fields is not None:
+            self._fields.close()
+
+
+class FieldWriter:
+    """VTX output for ParaView: nodal velocity and displacement; cell-mean stress and invariants."""
+
+    CELL_FIELDS = ("stress_rr", "stress_zz", "stress_tt", "stress_rz", "p", "q", "q_over_p", "density")
+
+    def __init__(self, model: SiloModel, folder: Path):
+        from dolfinx import fem, io
+
+        self.model = model
+        s = model.solver
+        mesh = model.sm.mesh
+        if mesh.comm.rank == 0:
+            folder.mkdir(parents=True, exist_ok=True)
+        mesh.comm.barrier()
+        self.disp = fem.Function(s.V, name="displacement")
+        W = fem.functionspace(mesh, ("DG", 0))
+        names = list(self.CELL_FIELDS) + (["eqps"] if "eqps" in s.state else [])
+        self.cell = {n: fem.Function(W, name=n) for n in names}
+        self._buf = np.zeros(s.n_cells_owned)
+        self.w_nodes = io.VTXWriter(mesh.comm, folder / "nodes.bp", [s.forms.velocity, self.disp], engine="BP4")
+        self.w_cells = io.VTXWriter(mesh.comm, folder / "cells.bp", list(self.cell.values()), engine="BP4")
+
+    def write(self, t: float) -> None:
+        from silo_dolfinx import kernels
+
+        s = self.model.solver
+        self.disp.x.array[:] = s.displacement().ravel()
+        cells = s.active_cells
+        sig = s.sig
+        p = -(sig[:, 0] + sig[:, 1] + sig[:, 2]) / 3.0
+        m = -p
+        j2 = 0.5 * ((sig[:, 0] - m) ** 2 + (sig[:, 1] - m) ** 2 + (sig[:, 2] - m) ** 2) + sig[:, 3] ** 2
+        q = np.sqrt(3.0 * j2)
+        values = {"stress_rr": sig[:, 0], "stress_zz": sig[:, 1], "stress_tt": sig[:, 2], "stress_rz": sig[:, 3],
+                  "p": p, "q": q, "q_over_p": np.where(p > 1e-9, q / np.maximum(p, 1e-9), 0.0), "density": s.rho}
+        if "eqps" in self.cell:
+            values["eqps"] = s.state["eqps"]
+        avg = np.zeros(cells.size)
+        for name, f in self.cell.items():
+            kernels.cell_average(np.ascontiguousarray(values[name]), s.dV, s.nq, avg)
+            f.x.array[:] = 0.0
+            f.x.array[cells] = avg
+            f.x.scatter_forward()
+        self.w_nodes.write(t)
+        self.w_cells.write(t)
+
+    def close(self) -> None:
+        self.w_nodes.close()
+        self.w_cells.close()
+
+
+# ---------------------------------------------------------------------------- the run
+def total_time(scene) -> float:
+    f = 0.0 if scene.fill.method == "k0" else scene.fill.duration
+    d = scene.discharge.duration if scene.discharge.mode != "none" else 0.0
+    return f + scene.store.duration + d
+
+
+def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> dict:
+    """Run a scene into the results folder ``out``; returns the summary (also on disk)."""
+    comm = MPI.COMM_WORLD if comm is None else comm
+    results = Results(out, scene, comm)
+    wall0 = time.time()
+    recorder = None
+    try:
+        sm = mesh_scene(scene, comm)
+        from silo_dolfinx.geometry.plot import plot_mesh
+        from silo_dolfinx.geometry.quality import quality_report
+
+        q = quality_report(sm.mesh)
+        plot_mesh(sm, results.path("mesh.png"), title=f"{scene.title}: {q['cells']} cells")
+        model = SiloModel(scene, sm)
+        s = model.solver
+        results.update(cells=q["cells"], mesh_quality=q, material=model.material.name,
+                       stable_dt_initial=s.dt_crit, time_step_scale=s.numerics.time_step_scale,
+                       ale="not applied: this version runs the Lagrangian phase only" if scene.ale.enabled else
+                       "off (Lagrangian)")
+        recorder = Recorder(model, results)
+        progress = Progress(comm, total_time(scene), every=progress_every)
+        stages = _fill(model, recorder, progress)
+        stages.append(_store(model, recorder, progress))
+        if scene.discharge.mode != "none":
+            stages.append(_discharge(model, recorder, progress))
+        e = s.global_energy()
+        results.update(stages=stages, steps=s.steps, rejected_steps=s.rejected, simulated_time=s.t,
+                       energy={k: getattr(e, k) for k in ("kinetic", "elastic", "plastic", "viscous", "damping",
+                                                          "gravity", "external", "contact")},
+                       energy_balance_error=e.relative_error(s.energy_scale),
+                       energy_balance_error_max=recorder.max_abs_balance / max(s.energy_scale, 1e-300),
+                       steps_per_second=s.steps / max(time.time() - wall0, 1e-9))
+        results.finish("completed")
+    except InstabilityError as err:
+        results.finish("failed", str(err))
+        raise
+    except BaseException as err:
+        results.finish("failed", f"{type(err).__name__}: {err}")
+        raise
+    finally:
+        if recorder is not None:
+            recorder.close()
+    return results.summary
+
+
+def _advance(model: SiloModel, t_end: float, stage: str, recorder: Recorder, progress, stop=None,
+             label: str | None = None) -> None:
+    s = model.solver
+    while s.t < t_end * (1 - 1e-12) - 1e-15:
+        remaining = t_end - s.t
+        if s.dt > remaining:
+            s.dt = remaining
+        s.step()
+        recorder.maybe(stage)
+        progress(label or stage, s.t, s.steps, s.dt)
+        if stop is not None and recorder.next_history - recorder.dt_history <= s.t and stop():
+            break
+
+
+def _stage_record(name: str, t0: float, model: SiloModel, steps0: int, wall0: float) -> dict:
+    s = model.solver
+    return {"name": name, "t_start": t0, "t_end": s.t, "steps": s.steps - steps0,
+            "wall_clock_s": round(time.time() - wall0, 3), "dt_last": s.dt_prev}
+
+
+def _fill(model: SiloModel, recorder: Recorder, progress) -> list[dict]:
+    sc = model.scene
+    s = model.solver
+    f = sc.fill
+    s.numerics.damping = model.fill_damping
+    if f.method == "k0":
+        model.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
+        model.set_geostatic_stress(f.k0)
+        recorder.history("fill")
+        recorder.profile("fill")
+        return [{"name": "fill", "method": "k0", "t_start": 0.0, "t_end": 0.0, "steps": 0}]
+    t0, steps0, wall0 = s.t, s.steps, time.time()
+    layers = model.layers()
+    n = len(layers)
+    T = f.duration / n
+    active = np.zeros(0, np.int32)
+    for k, cells in enumerate(layers):
+        active = np.union1d(active, cells).astype(np.int32)
+        model.activate(active, cells, s.t, f.ramp_fraction * T, last=(k == n - 1))
+        recorder.maybe("fill")
+        _advance(model, t0 + (k + 1) * T, "fill", recorder, progress, label=f"fill {k + 1}/{n}")
+    recorder.history("fill")
+    recorder.profile("fill")
+    return [dict(_stage_record("fill", t0, model, steps0, wall0), method=f.method, layers=n)]
+
+
+def _store(model: SiloModel, recorder: Recorder, progress) -> dict:
+    sc = model.scene
+    s = model.solver
+    t0, steps0, wall0 = s.t, s.steps, time.time()
+    tol = sc.store.kinetic_energy_tol
+    stop = None
+    if tol > 0.0:
+        def stop():
+            e = s.global_energy()
+            return e.kinetic < tol * max(e.gravity, 1e-300)
+    _advance(model, t0 + sc.store.duration, "store", recorder, progress, stop)
+    recorder.history("store")
+    recorder.profile("store")
+    return dict(_stage_record("store", t0, model, steps0, wall0), ended_on="kinetic energy"
+                if s.t < t0 + sc.store.duration * (1 - 1e-9) else "duration")
+
+
+def _discharge(model: SiloModel, recorder: Recorder, progress) -> dict:
+    sc = model.scene
+    s = model.solver
+    s.numerics.damping = 0.0
+    t0, steps0, wall0 = s.t, s.steps, time.time()
+    model.open_outlet()
+    _advance(model, t0 + sc.discharge.duration, "discharge", recorder, progress)
+    recorder.history("discharge")
+    recorder.profile("discharge")
+    return dict(_stage_record("discharge", t0, model, steps0, wall0), mode=sc.discharge.mode)

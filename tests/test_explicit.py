@@ -1,0 +1,290 @@
+"""The explicit core against closed forms: geostatic column at rest, confined wave speed,
+fixed-free frequency, Hill's thick cylinder (no locking), the time-step guard, energy
+bookkeeping, layer filling, and serial = parallel."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from conftest import scene_dict
+from mpi4py import MPI
+
+from silo_dolfinx import kernels, theory
+from silo_dolfinx.geometry.mesher import mesh_scene
+from silo_dolfinx.materials import DruckerPrager
+from silo_dolfinx.scene import load_scene
+from silo_dolfinx.simulation import SiloModel, ramp_velocity, run, smooth_step
+from silo_dolfinx.solver import ExplicitSolver, InstabilityError, Numerics, VelocityConstraint
+
+E, NU, RHO, G = 1.0e6, 0.3, 1000.0, 9.81
+ELASTIC = {"model": "elastic", "density": RHO, "youngs_modulus": E, "poisson_ratio": NU}
+
+
+def column(R=0.2, H=1.0, h=0.05, **sections):
+    geometry = {"shape": "column", "base_radius": R, "height": H, "element_size": h}
+    return load_scene(scene_dict(geometry, material=ELASTIC, **sections))
+
+
+def all_cells(model):
+    return np.arange(model.solver.n_cells_owned, dtype=np.int32)
+
+
+def cell_means(solver, values):
+    out = np.zeros(solver.active_cells.size)
+    kernels.cell_average(np.ascontiguousarray(values), solver.dV, solver.nq, out)
+    return out
+
+
+def settle(model, t_end):
+    s = model.solver
+    s.numerics.damping = model.fill_damping
+    while s.t < t_end:
+        s.step()
+
+
+def check_geostatic(model, tol=0.01):
+    """Cell-mean stresses against σ_zz = −ρg(H−z), σ_rr = σ_θθ = ν/(1−ν) σ_zz at the centroid.
+
+    Q1 stress is constant in z within a cell to first order, so its cell mean is the exact
+    value at the centroid to O(h²); 1 % of ρgH is the issue's bar."""
+    s = model.solver
+    zc = cell_means(s, s.quadrature_points()[:, 1])
+    srr, szz, stt = theory.geostatic_stress(RHO, G, model.outline.fill_height, zc, poisson_ratio=NU)
+    scale = RHO * G * model.outline.fill_height
+    err_zz = np.abs(cell_means(s, s.sig[:, 1]) - szz).max(initial=0) / scale
+    err_rr = np.abs(cell_means(s, s.sig[:, 0]) - srr).max(initial=0) / scale
+    err_tt = np.abs(cell_means(s, s.sig[:, 2]) - stt).max(initial=0) / scale
+    worst = s.comm.allreduce(max(err_zz, err_rr, err_tt), op=MPI.MAX)
+    assert worst < tol, worst
+    return worst
+
+
+def test_column_at_rest_under_gravity(comm):
+    """Elastic column between frictionless walls (kinematic contact), gravity ramped and the
+    motion damped: σ_zz = −ρg(H−z), σ_rr = σ_θθ = ν/(1−ν)σ_zz within 1 %."""
+    sc = column(fill={"method": "ramp", "duration": 1.0, "damping": 0.7})
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.5, last=True)
+    settle(model, 3.0)
+    assert model.solver.kinetic_energy_now() < 1e-12
+    worst = check_geostatic(model)
+    assert worst < 0.01
+    # the wall carries K0 σ_zz: mean p_n over the wall nodes below mid-height against theory
+    w = model.wall_state()
+    if comm.rank == 0:
+        sel = (w["z"] > 0.1) & (w["z"] < 0.5)
+        expect = -theory.geostatic_stress(RHO, G, 1.0, w["z"][sel], poisson_ratio=NU)[0]
+        assert np.allclose(w["p_n"][sel], expect, rtol=0.03)  # nodal tractions from lumped forces
+
+
+def test_layer_filling_reaches_the_same_state(comm):
+    """4 layers, each stress-free when activated: the statically determinate confined column
+    ends in the same geostatic state (1 %); inactive layers are not integrated."""
+    sc = column(fill={"method": "layers", "layers": 4, "duration": 2.0, "damping": 0.7})
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    layers = model.layers()
+    s = model.solver
+    counts = []
+    active = np.zeros(0, np.int32)
+    for k, cells in enumerate(layers):
+        active = np.union1d(active, cells).astype(np.int32)
+        model.activate(active, cells, s.t, 0.25, last=(k == 3))
+        counts.append(comm.allreduce(s.active_cells.size, op=MPI.SUM))
+        settle(model, (k + 1) * 0.5)
+    assert counts == sorted(counts) and counts[0] < counts[-1] == model.sm.num_cells_global()
+    settle(model, 4.0)
+    check_geostatic(model)
+
+
+def test_k0_start_is_in_equilibrium(comm):
+    sc = column(fill={"method": "k0"})
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.0, last=True)
+    model.set_geostatic_stress(sc.fill.k0)
+    for _ in range(200):
+        model.solver.step()
+    # peak velocity of a 1 m column that would fall freely for 200 steps: g t ≈ 1 m/s
+    vmax = comm.allreduce(float(np.abs(model.solver.v).max()), op=MPI.MAX)
+    assert vmax < 1e-6
+    check_geostatic(model, tol=1e-6)
+
+
+def test_confined_wave_speed(comm):
+    """A smooth compression pulse from the base: the half-amplitude point travels at
+    c = √(E(1−ν)/(ρ(1+ν)(1−2ν))) within 2 % (measured 0.01 %)."""
+    H = 2.0
+    sc = column(R=0.1, H=H, h=0.02, numerics={"time_step_scale": 0.9})
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    s = model.solver
+    c = theory.confined_wave_speed(E, NU, RHO)
+    T, u0 = 0.01, 0.01
+    s.constraints.append(VelocityConstraint(model.outlet_dofs_all, 1, ramp_velocity(u0, T)))
+    model._set_contact(closed=False)
+    x = s.mesh.geometry.x
+    zs = (0.5, 1.5)
+    rows = []
+    for z in zs:
+        d = s.node_dof[np.nonzero(np.abs(x[:, 1] - z) < 1e-9)[0]]
+        rows.append(d[d < s.n_owned])
+    hist = []
+    while s.t < 1.8 / c + T:
+        s.step()
+        vz = [comm.allreduce(float(s.v[r, 1].sum()), op=MPI.SUM) / comm.allreduce(r.size, op=MPI.SUM)
+              for r in rows]
+        hist.append([s.t - 0.5 * s.dt_prev, *vz])  # v is a half-step velocity
+    h = np.array(hist)
+    arrival = [np.interp(0.5 * u0, h[:, k + 1], h[:, 0]) for k in range(2)]
+    c_num = (zs[1] - zs[0]) / (arrival[1] - arrival[0])
+    assert abs(c_num - c) / c < 0.02
+
+
+def test_fixed_free_frequency(comm):
+    """Sudden gravity on a confined column fixed at the base: the top oscillates at
+    f1 = c/(4H) within 3 % (measured 0.5 %)."""
+    H = 2.0
+    sc = column(R=0.1, H=H, h=0.04, discharge={"gate": "fixed"}, numerics={"time_step_scale": 0.9})
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.0, last=True)
+    s = model.solver
+    f1 = theory.fixed_free_frequency(E, NU, RHO, H)
+    x = s.mesh.geometry.x
+    top = np.nonzero(np.abs(x[:, 1] - H) < 1e-9)[0]
+    n_top = comm.allreduce(top.size, op=MPI.SUM)
+    hist = []
+    while s.t < 6 / f1:
+        s.step()
+        hist.append((s.t, comm.allreduce(float(x[top, 1].sum()), op=MPI.SUM) / n_top))
+    h = np.array(hist)
+    u = h[:, 1] - h[:, 1].mean()
+    i = np.nonzero((u[:-1] < 0) & (u[1:] >= 0))[0]
+    crossings = h[i, 0] - u[i] * (h[i + 1, 0] - h[i, 0]) / (u[i + 1] - u[i])
+    f_num = 1.0 / np.mean(np.diff(crossings))
+    assert len(crossings) >= 5
+    assert abs(f_num - f1) / f1 < 0.03
+
+
+def hill(comm, bbar: bool) -> float:
+    """Thick cylinder a ≤ r ≤ 2a in plane strain, von Mises (β = 0), ν = 0.49, inner radius
+    driven slowly outwards: inner pressure over Hill's limit at the current radii."""
+    from dolfinx import mesh as dmesh
+
+    a, b, hz, sy = 0.5, 1.0, 0.05, 1e4
+    msh = dmesh.create_rectangle(comm, [[a, 0.0], [b, hz]], [10, 2], dmesh.CellType.quadrilateral)
+    s = ExplicitSolver(msh, DruckerPrager(1e7, 0.49, 1000.0, 0.0, 0.0, sy), Numerics(time_step_scale=0.9, bbar=bbar))
+    x = msh.geometry.x
+    inner = np.nonzero(np.abs(x[:, 0] - a) < 1e-12)[0]
+    outer = np.nonzero(np.abs(x[:, 0] - b) < 1e-12)[0]
+    T, ua = 0.5, 0.02
+    V = ua / (0.9 * T)
+    s.constraints += [VelocityConstraint(np.arange(s.n_nodes), 1),  # plane strain in z
+                      VelocityConstraint(s.node_dof[inner], 0, lambda t: V * smooth_step(t / (0.2 * T)))]
+    own = s.node_dof[inner][s.node_dof[inner] < s.n_owned]
+    while s.t < T:
+        s.step()
+    force = comm.allreduce(float(s.f_int[own, 0].sum()), op=MPI.SUM)
+    ai = comm.allreduce(float(x[inner, 0].max(initial=0.0)), op=MPI.MAX)
+    bo = comm.allreduce(float(x[outer, 0].max(initial=0.0)), op=MPI.MAX)
+    return force / (2 * math.pi * ai * hz) / theory.thick_cylinder_limit_pressure(sy, ai, bo)
+
+
+def test_no_volumetric_locking_hill_cylinder(comm):
+    """Mean dilatation (B-bar): the plateau is (2d/√3) ln(b/a) within 2 % (measured 0.15 %).
+    The same mesh without it locks (≈ 59 % too stiff), so the test can tell."""
+    assert abs(hill(comm, bbar=True) - 1.0) < 0.02
+    assert hill(comm, bbar=False) > 1.05
+
+
+def test_stable_at_scale_0_9(comm):
+    """10⁴ steps at Δt scale 0.9 (sudden gravity, frictionless walls, no damping): bounded
+    energy, balance error < 0.5 %."""
+    sc = column(R=0.1, H=0.5, h=0.05, numerics={"time_step_scale": 0.9})
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.0, last=True)
+    s = model.solver
+    for _ in range(10_000):
+        s.step()
+    e = s.global_energy()
+    assert e.relative_error() < 0.005
+    assert 0 < e.kinetic + e.elastic < 1.01 * e.gravity
+
+
+def test_unstable_scale_is_caught_and_nothing_non_finite_is_written(shared_tmp, comm):
+    """At scale 1.5 the guard stops the run with a clear message; the partial results are
+    readable and hold no NaN. (This mesh is one of benchmarks/stable_dt.py's: critical scale 1.19.)"""
+    sc = column(R=0.2, H=0.5, h=0.04, numerics={"time_step_scale": 1.5},
+                fill={"method": "ramp", "duration": 2.0}, output={"history_rate": 1000.0})
+    out = shared_tmp / "unstable"
+    with pytest.raises(InstabilityError, match="time_step_scale = 1.5"):
+        run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and "time_step_scale" in summary["error"]
+    for name in ("energy.csv", "wall_history.csv"):
+        text = (out / name).read_text()
+        assert "nan" not in text.lower() and "inf" not in text.lower()
+        assert len(text.splitlines()) >= 2  # something was written before the blow-up
+
+
+def test_energy_terms_are_consistent(comm):
+    """Stress power integrated over the run equals elastic energy + plastic dissipation
+    (small strains: within 1 %), and plastic dissipation is non-negative."""
+    sc = load_scene(scene_dict({"shape": "hopper", "height": 1.0, "top_radius": 0.5, "outlet_radius": 0.1,
+                                "element_size": 0.05},
+                               material={"model": "drucker_prager", "density": RHO, "youngs_modulus": E,
+                                         "friction_angle": 30.0, "dilation_angle": 0.0},
+                               wall={"friction": "coulomb", "mu": 0.3}, fill={"method": "ramp", "damping": 0.3}))
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.3, last=True)
+    settle(model, 0.6)
+    e = model.solver.global_energy()
+    assert e.plastic > 0.0
+    assert abs(e.internal_work - (e.elastic + e.plastic)) < 0.01 * e.internal_work
+    assert e.relative_error() < 0.01
+    assert e.contact < 0.0  # wall friction dissipates
+
+
+def test_only_the_effects_asked_for_are_allocated(comm):
+    sc = column()
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    assert model.solver.state == {}  # elastic: no plastic history, the plastic kernel is never called
+    dp = load_scene(scene_dict({"shape": "column", "base_radius": 0.2, "height": 1.0, "element_size": 0.05},
+                               material={**ELASTIC, "model": "drucker_prager", "friction_angle": 30.0}))
+    assert set(SiloModel(dp, mesh_scene(dp, comm)).solver.state) == {"eqps"}
+
+
+def test_parallel_run_equals_serial(comm):
+    """The same layer fill on COMM_SELF and COMM_WORLD: identical energies (round-off)."""
+    sc = column(fill={"method": "layers", "layers": 2, "duration": 0.4, "damping": 0.5})
+
+    def energies(c):
+        model = SiloModel(sc, mesh_scene(sc, c))
+        s = model.solver
+        layers = model.layers()
+        model.activate(layers[0], layers[0], 0.0, 0.1, last=False)
+        settle(model, 0.2)
+        model.activate(np.union1d(*layers).astype(np.int32), layers[1], s.t, 0.1, last=True)
+        settle(model, 0.4)
+        e = s.global_energy()
+        return np.array([s.steps, e.elastic, e.gravity, e.damping, e.viscous])
+
+    serial, parallel = energies(MPI.COMM_SELF), energies(comm)
+    assert serial[0] == parallel[0]
+    assert np.allclose(serial[1:], parallel[1:], rtol=1e-9, atol=0)
+
+
+def test_a_step_too_long_for_the_new_mesh_is_rejected_and_repeated(comm):
+    """Force a step 3× the stable one: it is rejected, the state restored, and the step
+    repeated with the Δt of the new configuration."""
+    sc = column(R=0.1, H=0.5, h=0.05)
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.0, last=True)
+    s = model.solver
+    for _ in range(5):
+        s.step()
+    x_before = s.mesh.geometry.x.copy()
+    s.dt = 3.0 * s.dt_crit
+    taken = s.step()
+    assert s.rejected == 1
+    assert taken <= s.numerics.time_step_scale * s.dt_crit * 1.05 + 1e-15
+    assert np.all(np.abs(s.mesh.geometry.x - x_before) < 1e-3)  # the state came back, then one small step

@@ -1,0 +1,161 @@
+"""Return mapping of the materials, point by point (no mesh): on the yield surface to 1e-10,
+flow consistent with ψ, exact apex return, elastic states untouched, the q/p limit, and the
+same answer on every rank."""
+
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from silo_dolfinx import theory
+from silo_dolfinx.materials import DruckerPrager, Elastic
+from silo_dolfinx.materials.base import invariants
+
+E, NU, RHO = 5.5e5, 0.3, 1000.0
+
+
+def dp(beta=30.0, psi=10.0, d=1.0):
+    return DruckerPrager(E, NU, RHO, beta, psi, d)
+
+
+def pq(sig):
+    return np.array([invariants(s)[:2] for s in sig])
+
+
+def random_states(n, seed=0, scale=2e4):
+    """Admissible compressive stress states and random strain increments that yield most."""
+    rng = np.random.default_rng(seed)
+    sig = np.zeros((n, 4))
+    p = rng.uniform(1e3, 3e4, n)
+    sig[:, :3] = -p[:, None]
+    de = rng.normal(0.0, 1.0, (n, 4)) * scale / E
+    return sig, de
+
+
+def run(mat, sig, de):
+    out = np.zeros_like(sig)
+    st_old = {k: np.zeros(sig.shape[0]) for k in mat.state_fields}
+    st_new = {k: np.zeros(sig.shape[0]) for k in mat.state_fields}
+    diss = mat.update(sig, de, st_old, out, st_new, np.ones(sig.shape[0]))
+    return out, st_new, diss
+
+
+def trial(mat, sig, de):
+    lam = mat.K - 2 * mat.G / 3
+    tr = de[:, :3].sum(axis=1)
+    t = sig.copy()
+    t[:, :3] += lam * tr[:, None] + 2 * mat.G * de[:, :3]
+    t[:, 3] += mat.G * de[:, 3]
+    return t
+
+
+def test_returned_stress_lies_on_the_yield_surface():
+    mat = dp()
+    sig, de = random_states(4000)
+    out, st, diss = run(mat, sig, de)
+    f_trial = mat.yield_function(trial(mat, sig, de))
+    f_new = mat.yield_function(out)
+    plastic = f_trial > 0
+    assert plastic.sum() > 1000  # the sample exercises the return map
+    p, q = pq(out).T
+    scale = np.maximum(np.abs(p), 1.0) * mat.tan_beta + mat.cohesion
+    assert np.all(np.abs(f_new[plastic]) <= 1e-10 * scale[plastic])  # relative 1e-10
+    assert np.all(f_new <= 1e-10 * scale)
+    assert diss >= 0.0  # ψ ≤ β: non-negative dissipation
+
+
+def test_elastic_states_are_untouched():
+    mat = dp()
+    sig, de = random_states(500, seed=3, scale=10.0)  # tiny increments stay elastic
+    out, st, _ = run(mat, sig, de)
+    assert np.all(mat.yield_function(trial(mat, sig, de)) <= 0)
+    assert np.allclose(out, trial(mat, sig, de), rtol=1e-14, atol=1e-12)  # round-off only
+    assert np.all(st["eqps"] == 0.0)
+
+
+def test_flow_direction_follows_the_dilation_angle():
+    """Plastic volumetric strain / equivalent deviatoric plastic strain = tan ψ, and the
+    deviatoric plastic strain is parallel to the stress deviator (coaxial flow)."""
+    for psi in (0.0, 10.0, 30.0):
+        mat = dp(30.0, psi)
+        sig, de = random_states(2000, seed=1)
+        out, st, _ = run(mat, sig, de)
+        t = trial(mat, sig, de)
+        cone = (mat.yield_function(t) > 0) & (pq(out)[:, 1] > 1.0)
+        # ε_p = Δε − C⁻¹(σ_new − σ_old) = C⁻¹(σ_trial − σ_new)
+        ds = t - out
+        c = (mat.K - 2 * mat.G / 3) / (3 * (mat.K - 2 * mat.G / 3) + 2 * mat.G)
+        ep = np.empty_like(ds)
+        tr = ds[:, :3].sum(axis=1)
+        ep[:, :3] = (ds[:, :3] - c * tr[:, None]) / (2 * mat.G)
+        ep[:, 3] = ds[:, 3] / mat.G
+        vol = ep[:, :3].sum(axis=1)
+        assert np.allclose(vol[cone], math.tan(math.radians(psi)) * st["eqps"][cone], rtol=1e-9, atol=1e-16)
+        # deviatoric parallelism with the final deviator: e_dev = (3/2) Δλ s/q
+        m = out[cone, :3].mean(axis=1)
+        s_dev = out[cone].copy()
+        s_dev[:, :3] -= m[:, None]
+        q = pq(out[cone])[:, 1]
+        e_dev = ep[cone].copy()
+        e_dev[:, :3] -= (vol[cone] / 3)[:, None]
+        e_dev[:, 3] *= 0.5  # tensor shear component
+        expect = 1.5 * st["eqps"][cone, None] * s_dev / q[:, None]
+        assert np.allclose(e_dev, expect, rtol=1e-8, atol=1e-14)
+
+
+def test_apex_return_is_exact():
+    mat = dp(30.0, 10.0, d=100.0)
+    sig = np.zeros((3, 4))
+    de = np.array([[1e-2, 1e-2, 1e-2, 0.0], [3e-2, 1e-2, 2e-2, 1e-3], [5e-2, 5e-2, 5e-2, 2e-2]])  # tension
+    out, st, diss = run(mat, sig, de)
+    p_apex = -mat.cohesion / mat.tan_beta
+    assert np.allclose(out[:, :3], -p_apex, rtol=1e-14)
+    assert np.allclose(out[:, 3], 0.0)
+    assert np.all(st["eqps"] >= 0.0)
+
+
+def test_limit_stress_ratio_in_shear():
+    """Monotonic shear under constant mean stress drives q/p to tan β (+ d/p)."""
+    for beta in (20.0, 30.0, 40.0):
+        mat = dp(beta, 0.0, d=1.0)
+        sig = np.array([[-1e4, -1e4, -1e4, 0.0]])
+        step = np.array([[0.0, 0.0, 0.0, 1e-4]])
+        for _ in range(300):
+            sig, _, _ = run(mat, sig, step)
+        p, q = pq(sig)[0]
+        assert abs(q / p - (theory.drucker_prager_limit_ratio(beta) + mat.cohesion / p)) < 1e-10
+
+
+def test_beta_zero_is_von_mises():
+    mat = dp(0.0, 0.0, d=2e3)
+    sig, de = random_states(500, seed=5)
+    out, _, _ = run(mat, sig, de)
+    q = pq(out)[:, 1]
+    assert np.all(q <= 2e3 * (1 + 1e-12))
+
+
+def test_elastic_law_is_linear_isotropic():
+    mat = Elastic(E, NU, RHO)
+    de = np.array([[1e-4, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 2e-4]])
+    out, _, diss = run(mat, np.zeros((2, 4)), de)
+    lam, mu = mat.K - 2 * mat.G / 3, mat.G
+    assert np.allclose(out[0], [(lam + 2 * mu) * 1e-4, lam * 1e-4, lam * 1e-4, 0.0], rtol=1e-14)
+    assert np.allclose(out[1], [0.0, 0.0, 0.0, mu * 2e-4], rtol=1e-14) and diss == 0.0
+
+
+def test_same_on_every_rank():
+    """Pointwise kernels: the same inputs give bit-identical outputs on every rank."""
+    comm = MPI.COMM_WORLD
+    sig, de = random_states(1000, seed=11)
+    out, _, _ = run(dp(), sig, de)
+    ref = comm.bcast(out, root=0)
+    assert np.array_equal(out, ref)
+
+
+@pytest.mark.parametrize("beta", [0.0, 35.0])
+def test_yield_function_matches_invariants(beta):
+    mat = dp(beta, 0.0, d=5.0)
+    s = np.array([[-2e3, -1e3, -1.5e3, 300.0]])
+    p, q = pq(s)[0]
+    assert abs(mat.yield_function(s)[0] - (q - p * math.tan(math.radians(beta)) - 5.0)) < 1e-9

@@ -3,6 +3,7 @@
     silo check SCENE [--set section.key=value ...]     validate, print the resolved scene
     silo mesh SCENE -o meshes/NAME.msh [--show]        write the gmsh mesh (and a PNG of it)
     silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
+    silo report results/NAME                           figures + report.md from a results folder
     silo schema                                        print the scene reference (Markdown)
 
 Bad input is reported before any meshing or time-stepping, one line per problem naming the
@@ -38,6 +39,8 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument("--out", required=True, help="results folder (created; files are overwritten)")
     sp.add_argument("--progress", type=float, default=5.0, metavar="SECONDS",
                     help="seconds between progress lines on rank 0 (default 5)")
+    sp = sub.add_parser("report", help="figures and report.md from a results folder")
+    sp.add_argument("folder", help="results folder written by silo run")
     sub.add_parser("schema", help="print the scene file reference (Markdown)")
     return p
 
@@ -56,6 +59,8 @@ def main(argv: list[str] | None = None) -> int:
             return _mesh(args)
         if args.command == "run":
             return _run(args)
+        if args.command == "report":
+            return _report(args)
     except SceneError as e:
         _error(str(e))
         return 2
@@ -121,6 +126,20 @@ def _mesh(args) -> int:
               f"inverted {q['inverted']}")
         if args.show:
             print(f"{out.with_suffix('.png')}: picture of the mesh")
+    return 0
+
+
+def _report(args) -> int:
+    if _rank() != 0:
+        return 0
+    from silo_dolfinx.report import make_report
+
+    try:
+        path = make_report(args.folder)
+    except FileNotFoundError as e:
+        _error(f"error: {e}")
+        return 2
+    print(f"{path}: written")
     return 0
 
 

@@ -60,7 +60,9 @@ class FrictionLaw:
             return np.zeros_like(s)
         if self.kind == COULOMB:
             return np.full_like(s, self.mu)
-        return self.mu_kinetic + (self.mu_static - self.mu_kinetic) * np.exp(-self.decay * s)
+        from silo_dolfinx.theory import dynamic_friction
+
+        return dynamic_friction(s, self.mu_static, self.mu_kinetic, self.decay)
 
     def as_array(self) -> np.ndarray:
         return np.array([self.kind, self.mu, self.mu_static, self.mu_kinetic, self.decay], float)

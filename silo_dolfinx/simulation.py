@@ -298,6 +298,8 @@ class FieldWriter:
         self._buf = np.zeros(s.n_cells_owned)
         self.w_nodes = io.VTXWriter(mesh.comm, folder / "nodes.bp", [s.forms.velocity, self.disp], engine="BP4")
         self.w_cells = io.VTXWriter(mesh.comm, folder / "cells.bp", list(self.cell.values()), engine="BP4")
+        self.folder = folder
+        self.count = 0
 
     def write(self, t: float) -> None:
         from silo_dolfinx import kernels
@@ -315,13 +317,34 @@ class FieldWriter:
         if "eqps" in self.cell:
             values["eqps"] = s.state["eqps"]
         avg = np.zeros(cells.size)
+        snapshot = {}
         for name, f in self.cell.items():
             kernels.cell_average(np.ascontiguousarray(values[name]), s.dV, s.nq, avg)
             f.x.array[:] = 0.0
             f.x.array[cells] = avg
             f.x.scatter_forward()
+            snapshot[name] = avg.copy()
         self.w_nodes.write(t)
         self.w_cells.write(t)
+        self._snapshot(t, snapshot)
+
+    def _snapshot(self, t: float, cell_values: dict) -> None:
+        """fields/snapshot_NNNN.npz on rank 0: active cells' corners and cell means, owned
+        nodes' positions and velocities (for `silo report`: renders, flow-channel boundary)."""
+        s = self.model.solver
+        comm = self.model.sm.comm
+        x = self.model.sm.mesh.geometry.x
+        corners = x[s._active_nodes][:, :, :2]
+        owned_nodes = np.nonzero(s.node_dof < s.n_owned)[0]
+        parts = comm.gather((corners, cell_values, x[owned_nodes, :2], s.v[s.node_dof[owned_nodes]]), root=0)
+        if parts is None:
+            return
+        data = {"t": t, "corners": np.concatenate([p[0] for p in parts]),
+                "node_xy": np.concatenate([p[2] for p in parts]), "node_velocity": np.concatenate([p[3] for p in parts])}
+        for name in cell_values:
+            data[f"cell_{name}"] = np.concatenate([p[1][name] for p in parts])
+        np.savez_compressed(self.folder / f"snapshot_{self.count:04d}.npz", **data)
+        self.count += 1
 
     def close(self) -> None:
         self.w_nodes.close()

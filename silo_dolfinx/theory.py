@@ -89,3 +89,228 @@ def drucker_prager_limit_ratio(friction_angle: float) -> float:
     if not 0.0 <= friction_angle < 90.0:
         raise ValueError(f"friction_angle = {friction_angle!r}: must be in [0, 90) degrees")
     return math.tan(math.radians(friction_angle))
+
+
+# ---------------------------------------------------------------------------- silo pressures
+def _nonneg_array(name, x):
+    import numpy as np
+
+    a = np.asarray(x, float)
+    if np.any(~np.isfinite(a)) or np.any(a < 0):
+        raise ValueError(f"{name}: values must be finite and ≥ 0")
+    return a
+
+
+def janssen(depth, radius: float, mu: float, k: float, unit_weight: float, surcharge: float = 0.0):
+    """Janssen (1895) in the EN 1991-4 form for a circular silo (Pa).
+
+    depth z below the equivalent surface (m, ≥ 0); radius R (m); wall friction μ; lateral
+    pressure ratio K; unit weight γ (N/m³); top surcharge q (Pa). With the Janssen depth
+    z0 = R/(2 K μ) (eq. 5-1's X0 with D = 2R):
+
+        p_v = γ z0 (1 − e^{−z/z0}) + q e^{−z/z0},   p_h = K p_v,   p_w = μ p_h.
+
+    Returns (p_h, p_w, p_v). Valid for a parallel-walled (cylindrical) silo.
+    """
+    _positive(radius=radius, mu=mu, k=k, unit_weight=unit_weight)
+    if surcharge < 0:
+        raise ValueError(f"surcharge = {surcharge!r}: must be ≥ 0")
+    import numpy as np
+
+    z = _nonneg_array("depth", depth)
+    z0 = janssen_depth(radius, mu, k)
+    e = np.exp(-z / z0)
+    pv = unit_weight * z0 * (1.0 - e) + surcharge * e
+    return k * pv, mu * k * pv, pv
+
+
+def janssen_depth(radius: float, mu: float, k: float) -> float:
+    """Janssen's characteristic depth z0 = R/(2 K μ) = D/(4 μ k) (m) (X0 of eq. 5-1)."""
+    _positive(radius=radius, mu=mu, k=k)
+    return radius / (2.0 * k * mu)
+
+
+def _hopper_geometry(half_angle, outlet_radius, height):
+    a = math.radians(half_angle)
+    if not 0.0 < half_angle < 90.0:
+        raise ValueError(f"half_angle = {half_angle!r}: must be in (0, 90) degrees")
+    _positive(height=height)
+    if outlet_radius < 0:
+        raise ValueError(f"outlet_radius = {outlet_radius!r}: must be ≥ 0")
+    h0 = outlet_radius / math.tan(a)  # apex to outlet
+    return a, h0, h0 + height
+
+
+def walker_parameters(friction_angle: float, wall_friction: float, half_angle: float, kappa: int = -1):
+    """Walker's (1966) wall-stress ratio F and exponent m for a conical hopper (eqs. 4-1, 4-3).
+
+    sin ω = sin φ_w / sin φ locates the wall stress on the Mohr circle. κ = +1 is the passive
+    (discharge) state, κ = −1 the active (filling) state; with κ applied to F as to m,
+
+        F = (1 + κ sin φ cos(ω + κφ_w)) / (1 − κ sin φ cos(ω + κφ_w + 2κα))     (eq. 4-1 at κ = +1)
+        m = 2 sin φ sin(ω + κφ_w + 2κα) / (tan α [1 − κ sin φ cos(ω + κφ_w + 2κα)])   (eq. 4-3)
+
+    which satisfy the slice equilibrium m ≈ 2[F(1 + μ cot α) − 1]. Angles in degrees; the
+    wall friction angle φ_w = atan μ must not exceed φ. Returns (F, m).
+    """
+    if kappa not in (-1, 1):
+        raise ValueError(f"kappa = {kappa!r}: must be -1 (filling, active) or +1 (discharge, passive)")
+    if not 0.0 < friction_angle < 90.0:
+        raise ValueError(f"friction_angle = {friction_angle!r}: must be in (0, 90) degrees")
+    if not 0.0 <= wall_friction < math.tan(math.radians(friction_angle)):
+        raise ValueError(f"wall_friction = {wall_friction!r}: must be in [0, tan φ)")
+    a = math.radians(half_angle)
+    if not 0.0 < half_angle < 90.0:
+        raise ValueError(f"half_angle = {half_angle!r}: must be in (0, 90) degrees")
+    phi, phiw = math.radians(friction_angle), math.atan(wall_friction)
+    s = math.sin(phi)
+    om = math.asin(math.sin(phiw) / s)
+    ang = om + kappa * phiw + 2 * kappa * a
+    F = (1 + kappa * s * math.cos(om + kappa * phiw)) / (1 - kappa * s * math.cos(ang))
+    m = 2 * s * math.sin(ang) / (math.tan(a) * (1 - kappa * s * math.cos(ang)))
+    return F, m
+
+
+def mclean_m(wall_friction: float, half_angle: float) -> float:
+    """McLean's (1985) exponent m = 2 μ_w / tan α (eq. 4-4), to use in eq. 4-2."""
+    if wall_friction < 0:
+        raise ValueError(f"wall_friction = {wall_friction!r}: must be ≥ 0")
+    if not 0.0 < half_angle < 90.0:
+        raise ValueError(f"half_angle = {half_angle!r}: must be in (0, 90) degrees")
+    return 2.0 * wall_friction / math.tan(math.radians(half_angle))
+
+
+def hopper_vertical_stress(z, m: float, half_angle: float, outlet_radius: float, height: float,
+                           unit_weight: float, surcharge: float = 0.0):
+    """Eq. 4-2: the mean vertical stress (Pa) at height z above the outlet of a truncated cone
+    of the given height, with h' measured from the apex and h_a its top value:
+
+        σ = γ h'/(m − 1) [1 − (h'/h_a)^{m−1}] + Q0 (h'/h_a)^m      (m = 1: −γ h' ln(h'/h_a) + Q0 h'/h_a)
+
+    Valid for 0 ≤ z ≤ height."""
+    import numpy as np
+
+    _positive(unit_weight=unit_weight)
+    a, h0, ha = _hopper_geometry(half_angle, outlet_radius, height)
+    z = np.asarray(z, float)
+    if np.any(z < -1e-12) or np.any(z > height * (1 + 1e-12)):
+        raise ValueError("z: heights must lie in [0, height]")
+    hp = np.maximum(z + h0, 1e-300)
+    x = hp / ha
+    if abs(m - 1.0) < 1e-12:
+        sv = -unit_weight * hp * np.log(x)
+    else:
+        sv = unit_weight * hp / (m - 1.0) * (1.0 - x ** (m - 1.0))
+    return sv + surcharge * x**m
+
+
+def walker_hopper(z, friction_angle: float, wall_friction: float, half_angle: float, outlet_radius: float,
+                  height: float, unit_weight: float, kappa: int = -1, surcharge: float = 0.0, m: float | None = None):
+    """Walker's hopper wall pressures (eqs. 4-1 to 4-3): p_n = F σ(z), p_s = μ p_n (Pa).
+
+    ``m`` overrides eq. 4-3 (e.g. McLean's eq. 4-4). Returns (p_n, p_s)."""
+    F, m_w = walker_parameters(friction_angle, wall_friction, half_angle, kappa)
+    sv = hopper_vertical_stress(z, m_w if m is None else m, half_angle, outlet_radius, height, unit_weight,
+                                surcharge)
+    return F * sv, wall_friction * F * sv
+
+
+def en1991_hopper(z, wall_friction: float, half_angle: float, outlet_radius: float, height: float,
+                  unit_weight: float, surcharge: float = 0.0, discharge: bool = False,
+                  friction_angle: float | None = None, b: float = 0.2):
+    """EN 1991-4 (2006) conical hopper pressures (thesis ch. 7.4.2), Pa; returns (p_n, p_s).
+
+    Filling: F_f = 1 − b/(1 + tan α/μ) = (1 + 0.8 μ cot α)/(1 + μ cot α) (b = 0.2).
+    Discharge: F_e = (1 + sin φ cos ε)/(1 − sin φ cos(2α + ε)), ε = φ_w + asin(sin φ_w/sin φ).
+    Then n = 2 (F μ cot α + F) − 2 and the vertical stress is eq. 4-2 with m = n; the
+    surcharge is the vertical stress at the transition (the bin's Janssen load, or 0)."""
+    a = math.radians(half_angle)
+    mu = wall_friction
+    if discharge:
+        if friction_angle is None:
+            raise ValueError("friction_angle: needed for the discharge ratio F_e")
+        phi, phiw = math.radians(friction_angle), math.atan(mu)
+        if phiw >= phi:
+            raise ValueError("wall_friction: atan(μ) must be below the friction angle")
+        eps = phiw + math.asin(math.sin(phiw) / math.sin(phi))
+        F = (1 + math.sin(phi) * math.cos(eps)) / (1 - math.sin(phi) * math.cos(2 * a + eps))
+    else:
+        F = 1.0 - b / (1.0 + math.tan(a) / mu)
+    n = 2.0 * (F * mu / math.tan(a) + F) - 2.0
+    sv = hopper_vertical_stress(z, n, half_angle, outlet_radius, height, unit_weight, surcharge)
+    return F * sv, mu * F * sv
+
+
+# ---------------------------------------------------------------------------- flow rate
+def beverloo(density: float, outlet_diameter: float, c: float = 0.58, lam: float = 1.5,
+             particle_size: float = 0.0, gravity: float = 9.81) -> float:
+    """Beverloo et al. (1961), eq. 4-6: W = C ρ √g (D0 − λ d)^{5/2}  (kg/s).
+
+    C ≈ 0.58 (0.64 for very smooth particles), λ ≈ 1.5; valid for D0 > λ d. For the ch. 4
+    hopper (ρ 1000, D0 0.2 m, d 0) it gives 32.5 kg/s."""
+    _positive(density=density, outlet_diameter=outlet_diameter, c=c, gravity=gravity)
+    if particle_size < 0 or lam < 0:
+        raise ValueError("particle_size and lam must be ≥ 0")
+    eff = outlet_diameter - lam * particle_size
+    if eff <= 0:
+        raise ValueError(f"outlet_diameter = {outlet_diameter!r}: must exceed lam × particle_size = {lam * particle_size!r}")
+    return c * density * math.sqrt(gravity) * eff**2.5
+
+
+def rose_tanaka_factor(half_angle: float, stagnant_angle: float) -> float:
+    """Rose & Tanaka (1956), eq. 4-8: F = (tan α tan φ_d)^{−0.35} for α < 90° − φ_d, else 1.
+
+    α: hopper half-angle; φ_d: angle of the stagnant zone boundary to the horizontal (deg)."""
+    for name, v in (("half_angle", half_angle), ("stagnant_angle", stagnant_angle)):
+        if not 0.0 < v < 90.0:
+            raise ValueError(f"{name} = {v!r}: must be in (0, 90) degrees")
+    if half_angle < 90.0 - stagnant_angle:
+        return (math.tan(math.radians(half_angle)) * math.tan(math.radians(stagnant_angle))) ** -0.35
+    return 1.0
+
+
+# ---------------------------------------------------------------------------- waves
+def wensrich_exponent(diameter: float, mu: float, k: float) -> float:
+    """Growth exponent 1/(2 X0) (1/m) of a rarefaction wave in a parallel column,
+    X0 = D/(4 μ k) (eq. 5-1): σ⁺/σ⁺0 = exp(x/(2 X0))."""
+    _positive(diameter=diameter, mu=mu, k=k)
+    return 2.0 * mu * k / diameter
+
+
+def wave_growth(x, diameter: float, mu: float, k: float, half_angle: float = 0.0):
+    """σ⁺/σ⁺0 of a small rarefaction wave after travelling x (m) up a column of base
+    diameter D with wall friction μ and lateral ratio k (ch. 5):
+
+        α = 0: exp(x/(2X0))                                      (eq. 5-1)
+        α > 0 (converging, widening upwards): (1 + 2x sin α/D)^{k(1 + μ/tan α)}   (eq. 5-14)
+        α < 0 (diverging): (1 − 2x sin|α|/D)^{k(1 − μ/tan|α|)}                   (eq. 5-15)
+
+    Both tend to eq. 5-1 as α → 0. Valid for small |α| (the thesis: |α| < 3°) and, when
+    diverging, below the apex (2x sin|α| < D)."""
+    import numpy as np
+
+    _positive(diameter=diameter, mu=mu, k=k)
+    x = _nonneg_array("x", x)
+    if half_angle == 0.0:
+        return np.exp(x * wensrich_exponent(diameter, mu, k))
+    if not -45.0 < half_angle < 45.0:
+        raise ValueError(f"half_angle = {half_angle!r}: must be in (-45, 45) degrees (small-angle theory)")
+    a = math.radians(abs(half_angle))
+    if half_angle > 0:
+        return (1.0 + 2.0 * x * math.sin(a) / diameter) ** (k * (1.0 + mu / math.tan(a)))
+    base = 1.0 - 2.0 * x * math.sin(a) / diameter
+    if np.any(base <= 0):
+        raise ValueError("x: beyond the apex of the diverging column (2x sin|α| ≥ D)")
+    return base ** (k * (1.0 - mu / math.tan(a)))
+
+
+# ---------------------------------------------------------------------------- wall friction
+def dynamic_friction(slip_speed, mu_static: float, mu_kinetic: float, decay: float):
+    """Eq. 7-1: μ_d = μ_k + (μ_s − μ_k) exp(−ϖ |v_slip|), ϖ in s/m; needs μ_k ≤ μ_s."""
+    import numpy as np
+
+    if not 0.0 <= mu_kinetic <= mu_static:
+        raise ValueError("need 0 ≤ mu_kinetic ≤ mu_static")
+    if decay < 0:
+        raise ValueError(f"decay = {decay!r}: must be ≥ 0")
+    return mu_kinetic + (mu_static - mu_kinetic) * np.exp(-decay * np.abs(np.asarray(slip_speed, float)))

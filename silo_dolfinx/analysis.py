@@ -1,0 +1,207 @@
+"""Turning results into the thesis' numbers: averages, spectra, deviations, flow rates,
+flow-channel boundaries and stress/strain-rate orientations. Plain numpy; no mesh needed.
+
+Conventions as in the rest of the package: stress 4-vectors (rr, zz, θθ, rz), tension
+positive; p = −tr σ/3 (compression positive), q = √(3 J2); heights up from the outlet.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+# ---------------------------------------------------------------------------- time series
+def time_average(t, values, t_start: float, t_end: float):
+    """Eq. 4-9 / 6-1: mean of the samples with t_start ≤ t ≤ t_end (along axis 0)."""
+    t = np.asarray(t, float)
+    sel = (t >= t_start) & (t <= t_end)
+    if not np.any(sel):
+        raise ValueError(f"no samples in [{t_start}, {t_end}] s")
+    return np.asarray(values, float)[sel].mean(axis=0)
+
+
+@dataclass
+class Spectrum:
+    frequency: np.ndarray  # Hz
+    amplitude: np.ndarray  # one-sided amplitude, same unit as the signal
+    resolution: float  # Hz, the bin width 1/T
+
+    def peaks(self, n: int = 2, min_frequency: float = 0.0, min_separation: float | None = None) -> np.ndarray:
+        """Frequencies of the n largest local maxima above min_frequency, at least
+        min_separation apart (default: 3 bins), largest first; quadratic interpolation
+        refines each within its bin."""
+        f, a = self.frequency, self.amplitude
+        sep = 3 * self.resolution if min_separation is None else min_separation
+        idx = [i for i in range(1, len(a) - 1) if a[i] >= a[i - 1] and a[i] >= a[i + 1] and f[i] >= min_frequency]
+        idx.sort(key=lambda i: -a[i])
+        chosen: list[float] = []
+        for i in idx:
+            y0, y1, y2 = a[i - 1], a[i], a[i + 1]
+            den = y0 - 2 * y1 + y2
+            shift = 0.5 * (y0 - y2) / den if den != 0 else 0.0
+            fi = f[i] + shift * self.resolution
+            if all(abs(fi - c) >= sep for c in chosen):
+                chosen.append(fi)
+            if len(chosen) == n:
+                break
+        return np.array(chosen)
+
+
+def spectrum(t, x, *, detrend: str = "linear", window: str = "hann", t_start: float | None = None,
+             t_end: float | None = None) -> Spectrum:
+    """One-sided amplitude spectrum of a uniformly sampled signal (thesis Figs. 4-11, 4-12).
+
+    The signal is detrended (constant or linear) and windowed (Hann by default); amplitudes
+    are corrected for the window's coherent gain, so a sine of amplitude A shows A. The
+    resolution is 1/T for a record of length T."""
+    from scipy import signal as sps
+
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    sel = np.ones(t.size, bool)
+    if t_start is not None:
+        sel &= t >= t_start
+    if t_end is not None:
+        sel &= t <= t_end
+    t, x = t[sel], x[sel]
+    if t.size < 8:
+        raise ValueError("need at least 8 samples for a spectrum")
+    dt = np.diff(t)
+    if np.max(np.abs(dt - dt.mean())) > 1e-3 * dt.mean():
+        # resample onto a uniform grid (histories are written at a fixed rate, but a stage
+        # boundary may add a sample)
+        tu = np.linspace(t[0], t[-1], t.size)
+        x = np.interp(tu, t, x)
+        t = tu
+    n = t.size
+    step = (t[-1] - t[0]) / (n - 1)
+    x = sps.detrend(x, type=detrend) if detrend else x - 0.0
+    w = sps.get_window(window, n) if window else np.ones(n)
+    X = np.fft.rfft(x * w)
+    amp = 2.0 * np.abs(X) / w.sum()
+    amp[0] /= 2.0
+    f = np.fft.rfftfreq(n, step)
+    return Spectrum(f, amp, 1.0 / (n * step))
+
+
+def representative_deviation(values, reference, normaliser=None) -> float:
+    """S0 = √(mean(((P − P0)/N)²)): eq. 3-13 with N = P0 (pointwise); eq. 5-18 with N = σ⁺0
+    (a scalar) and P0 the predicted disturbance."""
+    v = np.asarray(values, float)
+    r = np.asarray(reference, float)
+    nrm = r if normaliser is None else np.asarray(normaliser, float)
+    return float(np.sqrt(np.mean(((v - r) / nrm) ** 2)))
+
+
+def discharged_volume_percentage(initial_volume: float, volume) -> np.ndarray:
+    """Eq. 6-2: V_dis = (V0 − V')/V0 × 100 %."""
+    if initial_volume <= 0:
+        raise ValueError("initial_volume must be positive")
+    return (initial_volume - np.asarray(volume, float)) / initial_volume * 100.0
+
+
+def outlet_mass_flow(r, vz, density) -> float:
+    """Mass flow rate (kg/s) through a horizontal outlet: ∫ ρ (−v_z) 2π r dr (trapezoid over
+    the outlet nodes sorted by r; downward velocity negative)."""
+    r = np.asarray(r, float)
+    o = np.argsort(r)
+    r, vz = r[o], np.asarray(vz, float)[o]
+    rho = np.broadcast_to(np.asarray(density, float), r.shape)[o] if np.ndim(density) else density
+    return float(np.trapezoid(rho * (-vz) * 2.0 * np.pi * r, r))
+
+
+def flow_rate_from_mass(t, discharged_mass):
+    """W(t) = dM/dt by central differences (kg/s)."""
+    return np.gradient(np.asarray(discharged_mass, float), np.asarray(t, float))
+
+
+# ---------------------------------------------------------------------------- flow pattern
+def flow_channel_boundary(r, z, vz, fraction: float = 1e-3, rows: np.ndarray | None = None):
+    """Ch. 6.4.3: at each height, the radius where |v_z| first falls below ``fraction`` of the
+    centreline |v_z| at that height (linear interpolation between samples along r).
+
+    r, z, vz: 2-D arrays (heights × radii, radii increasing, the first column on the axis) or
+    1-D scattered points with ``rows`` the height of each row. Returns (z_rows, r_fcb) with
+    r_fcb = nan where the whole row flows (mass flow at that height)."""
+    r, z, vz = (np.asarray(a, float) for a in (r, z, vz))
+    if r.ndim == 1:
+        zs = np.unique(z) if rows is None else np.asarray(rows, float)
+        R, Z, VZ = [], [], []
+        for zi in zs:
+            sel = np.isclose(z, zi)
+            o = np.argsort(r[sel])
+            R.append(r[sel][o])
+            VZ.append(vz[sel][o])
+            Z.append(zi)
+        out = [_fcb_row(ri, vi, fraction) for ri, vi in zip(R, VZ)]
+        return np.array(Z), np.array(out)
+    out = np.array([_fcb_row(r[i], vz[i], fraction) for i in range(r.shape[0])])
+    return z[:, 0], out
+
+
+def _fcb_row(r, vz, fraction):
+    a = np.abs(vz)
+    thresh = fraction * a[0]
+    if a[0] == 0:
+        return np.nan
+    below = np.nonzero(a < thresh)[0]
+    if below.size == 0:
+        return np.nan
+    j = below[0]
+    if j == 0:
+        return r[0]
+    # linear interpolation between samples j-1 (above) and j (below)
+    return float(r[j - 1] + (thresh - a[j - 1]) * (r[j] - r[j - 1]) / (a[j] - a[j - 1]))
+
+
+def effective_transition(z_rows, r_fcb, wall_radius):
+    """Height where the flow channel boundary meets the wall (the lowest row that flows to the
+    wall, r_fcb = nan or ≥ the wall radius there); nan if none."""
+    z_rows = np.asarray(z_rows, float)
+    reach = np.isnan(r_fcb) | (np.asarray(r_fcb) >= np.asarray(wall_radius) * (1 - 1e-9))
+    return float(z_rows[reach].min()) if np.any(reach) else float("nan")
+
+
+# ---------------------------------------------------------------------------- stress measures
+def invariants(sig):
+    """(p, q) of (n, 4) stresses: p = −tr σ/3 (compression +), q = √(3 J2)."""
+    s = np.atleast_2d(np.asarray(sig, float))
+    m = s[:, :3].mean(axis=1)
+    d = s[:, :3] - m[:, None]
+    j2 = 0.5 * (d**2).sum(axis=1) + s[:, 3] ** 2
+    return -m, np.sqrt(3.0 * j2)
+
+
+def stress_ratio(sig, p_min: float = 1e-9):
+    """q/p (eq. 4-11); 0 where p ≤ p_min."""
+    p, q = invariants(sig)
+    return np.where(p > p_min, q / np.maximum(p, p_min), 0.0)
+
+
+def principal_angle(t_rr, t_zz, t_rz, major: str = "compressive"):
+    """Angle (degrees, in (−90, 90]) from the r axis (horizontal) of the major principal
+    direction of an in-plane symmetric tensor. 'compressive' picks the most negative
+    eigenvalue (the major principal stress of a granular solid, tension positive);
+    'largest' the most positive (the major principal plastic strain rate)."""
+    t_rr, t_zz, t_rz = (np.asarray(a, float) for a in (t_rr, t_zz, t_rz))
+    theta = 0.5 * np.degrees(np.arctan2(2.0 * t_rz, t_rr - t_zz))  # direction of the largest eigenvalue
+    if major == "compressive":
+        theta = theta + 90.0
+    a = np.mod(theta, 180.0)
+    return np.where(a > 90.0, a - 180.0, a)
+
+
+def stress_orientation(sig):
+    """Major (most compressive) principal stress angle from the horizontal, degrees: 90 is
+    vertical (active, filling), 0 horizontal (passive, discharge; thesis Fig. 4-5)."""
+    s = np.atleast_2d(np.asarray(sig, float))
+    return principal_angle(s[:, 0], s[:, 1], s[:, 3], "compressive")
+
+
+def strain_rate_orientation(d):
+    """Major principal (plastic) strain-rate angle from the horizontal, degrees, of (n, 4)
+    rates (rr, zz, θθ, γ_rz) with engineering shear."""
+    d = np.atleast_2d(np.asarray(d, float))
+    return principal_angle(d[:, 0], d[:, 1], 0.5 * d[:, 3], "largest")

@@ -1,0 +1,412 @@
+"""`silo report results/NAME`: figures and a report.md from a results folder.
+
+Every figure uses the thesis' axes and shows the matching theory beside the simulation:
+
+* ``wall_pressure_<stage>.png`` — p_n and p_s against height at the end of each stage, with
+  Janssen (cylindrical walls), Walker κ = −1 / +1 and McLean (hoppers), EN 1991-4;
+* ``wall_history.png`` — p_n(t) at the wall stations;
+* ``spectra.png`` — amplitude spectra at the stations, eq. 4-12's frequency marked;
+* ``outlet.png`` — outlet velocity and mass flow rate against Beverloo (eq. 4-6/4-8);
+* ``flow_channel.png`` — the flow-channel boundary (v_z = 0.001 × centreline, ch. 6.4.3);
+* ``energy.png`` — energy terms and the balance error;
+* ``field_q_over_p.png``, ``field_velocity.png`` — renders of the last field snapshot;
+
+and ``report.md`` tying them together with a table of the key numbers. A partial results
+folder (a run still going, or one that stopped) gives whatever its files allow; what is
+missing is named in the report.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from silo_dolfinx import analysis, theory
+
+
+def _read_csv(path: Path) -> dict[str, np.ndarray] | None:
+    if not path.is_file():
+        return None
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    if len(rows) < 2:
+        return None
+    head, body = rows[0], rows[1:]
+    cols = {}
+    for j, name in enumerate(head):
+        vals = [r[j] if j < len(r) else "" for r in body]
+        try:
+            cols[name] = np.array([float(v) if v != "" else np.nan for v in vals])
+        except ValueError:
+            cols[name] = np.array(vals)
+    return cols
+
+
+class Report:
+    def __init__(self, folder: str | Path):
+        self.folder = Path(folder)
+        if not self.folder.is_dir():
+            raise FileNotFoundError(f"{self.folder}: no such results folder")
+        from silo_dolfinx.scene import load_scene
+
+        self.scene = load_scene(self.folder / "scene.toml") if (self.folder / "scene.toml").is_file() else None
+        s = self.folder / "summary.json"
+        self.summary = json.loads(s.read_text()) if s.is_file() else {}
+        self.missing: list[str] = []
+        self.figures: list[tuple[str, str]] = []
+        self.numbers: list[tuple[str, str]] = []
+        import matplotlib
+
+        matplotlib.use("Agg")
+
+    # ------------------------------------------------------------------ helpers
+    def _save(self, fig, name: str, caption: str) -> None:
+        import matplotlib.pyplot as plt
+
+        fig.tight_layout()
+        fig.savefig(self.folder / name, dpi=120)
+        plt.close(fig)
+        self.figures.append((name, caption))
+
+    def _stage_times(self) -> dict[str, tuple[float, float]]:
+        return {st["name"]: (st.get("t_start", 0.0), st.get("t_end", 0.0)) for st in self.summary.get("stages", [])}
+
+    # ------------------------------------------------------------------ theory beside the walls
+    def wall_theory(self, z: np.ndarray, stage: str) -> list[tuple[str, np.ndarray]]:
+        """Theory curves of p_n at heights z for this scene and stage."""
+        sc = self.scene
+        if sc is None:
+            return []
+        g, m, w = sc.geometry, sc.material, sc.wall
+        gamma = m.density * sc.loads.gravity
+        mu = w.get("mu", w.get("mu_static", 0.0))
+        phi = m.get("friction_angle")
+        hf = g.fill_height
+        out = []
+        if g.shape in ("flat_bottom", "column") and mu > 0:
+            R = g.radius if g.shape == "flat_bottom" else g.base_radius
+            for K, label in ((0.38, "Janssen K = 0.38"),) + (
+                    ((m.poisson_ratio / (1 - m.poisson_ratio), "Janssen K = ν/(1−ν)"),) if m.model == "elastic" else ()):
+                ph, _, _ = theory.janssen(np.clip(hf - z, 0, None), R, mu, K, gamma, sc.loads.top_surcharge)
+                out.append((label, ph))
+        if g.shape == "hopper" and mu > 0:
+            alpha = math.degrees(math.atan((g.top_radius - g.outlet_radius) / g.height))
+            zz = np.clip(z, 0, g.height)
+            if phi and math.atan(mu) < math.radians(phi):
+                kappa = 1 if stage == "discharge" else -1
+                pn, _ = theory.walker_hopper(zz, phi, mu, alpha, g.outlet_radius, g.height, gamma, kappa)
+                out.append((f"Walker κ = {kappa:+d}", pn))
+                F, _ = theory.walker_parameters(phi, mu, alpha, kappa)
+                sv = theory.hopper_vertical_stress(zz, theory.mclean_m(mu, alpha), alpha, g.outlet_radius, g.height,
+                                                   gamma)
+                out.append(("McLean (eq. 4-4)", F * sv))
+            pn, _ = theory.en1991_hopper(zz, mu, alpha, g.outlet_radius, g.height, gamma,
+                                         discharge=stage == "discharge" and bool(phi), friction_angle=phi)
+            out.append(("EN 1991-4 " + ("discharge" if stage == "discharge" and phi else "filling"), pn))
+        if g.shape == "bin_hopper" and mu > 0:
+            hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
+            ph, _, pv = theory.janssen(np.clip(hf - z, 0, None), g.radius, mu, 0.38, gamma)
+            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, 0.38, gamma)
+            zz = np.clip(z, 0, hh)
+            pn_h, _ = theory.en1991_hopper(zz, mu, g.hopper_half_angle, g.outlet_radius, hh, gamma, surcharge=float(pv_t),
+                                           discharge=stage == "discharge" and bool(phi), friction_angle=phi)
+            out.append(("Janssen K = 0.38 / EN 1991-4 hopper", np.where(z > hh, ph, pn_h)))
+        return out
+
+    # ------------------------------------------------------------------ figures
+    def wall_profiles(self) -> None:
+        import matplotlib.pyplot as plt
+
+        profiles = sorted(self.folder.glob("wall_profile_*.csv"))
+        if not profiles:
+            self.missing.append("wall profiles (wall_profile_<stage>.csv)")
+            return
+        for path in profiles:
+            stage = path.stem.removeprefix("wall_profile_")
+            d = _read_csv(path)
+            if d is None:
+                continue
+            fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 6), sharey=True)
+            a1.plot(d["p_n"] / 1e3, d["z"], "k.-", ms=3, lw=1, label="simulation")
+            for label, pn in self.wall_theory(d["z"], stage):
+                a1.plot(pn / 1e3, d["z"], "--", lw=1.3, label=label)
+            a1.set_xlabel("wall normal pressure p_n (kPa)")
+            a1.set_ylabel("height above outlet z (m)")
+            a1.legend(fontsize=8)
+            a1.grid(alpha=0.3)
+            a2.plot(d["p_s"] / 1e3, d["z"], "k.-", ms=3, lw=1, label="p_s")
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(d["p_n"] > 0, d["p_s"] / d["p_n"], np.nan)
+            a2b = a2.twiny()
+            a2b.plot(ratio, d["z"], "r-", lw=0.8, alpha=0.7)
+            a2b.set_xlabel("mobilised friction p_s/p_n", color="r")
+            a2.set_xlabel("wall shear p_s (kPa)")
+            a2.grid(alpha=0.3)
+            fig.suptitle(f"{self._title()} — wall pressures, end of {stage}")
+            self._save(fig, f"wall_pressure_{stage}.png", f"Wall pressures at the end of {stage}, with theory.")
+            self.numbers.append((f"max p_n, end of {stage}", f"{np.nanmax(d['p_n']) / 1e3:.3f} kPa at z = "
+                                 f"{d['z'][int(np.nanargmax(d['p_n']))]:.3f} m"))
+            loaded = (d["p_n"] > 0.05 * np.nanmax(d["p_n"])) & (d["z"] > d["z"].min())  # not the outlet-edge node
+            if np.any(loaded):
+                self.numbers.append((f"mobilised p_s/p_n, end of {stage} (nodes with p_n > 5 % of max)",
+                                     f"mean {np.nanmean(ratio[loaded]):.4f}, median {np.nanmedian(ratio[loaded]):.4f}"))
+
+    def _history(self):
+        h = _read_csv(self.folder / "wall_history.csv")
+        if h is None:
+            self.missing.append("wall pressure histories (wall_history.csv)")
+            return None
+        return h
+
+    def wall_histories(self) -> None:
+        import matplotlib.pyplot as plt
+
+        h = self._history()
+        if h is None:
+            return
+        fig, ax = plt.subplots(figsize=(10, 5))
+        for k in np.unique(h["station"]).astype(int):
+            sel = h["station"] == k
+            ax.plot(h["t"][sel], h["p_n"][sel] / 1e3, lw=0.8, label=f"z = {np.nanmean(h['z'][sel]):.2f} m")
+        for name, (t0, t1) in self._stage_times().items():
+            ax.axvline(t1, color="0.6", lw=0.6, ls=":")
+        ax.set_xlabel("time t (s)")
+        ax.set_ylabel("wall normal pressure p_n (kPa)")
+        ax.legend(fontsize=7, ncol=2)
+        ax.grid(alpha=0.3)
+        self._save(fig, "wall_history.png", "Wall normal pressure at the stations (dotted: stage ends).")
+
+    def spectra(self) -> None:
+        import matplotlib.pyplot as plt
+
+        h = self._history()
+        if h is None:
+            return
+        stages = self._stage_times()
+        t0, t1 = stages.get("discharge", (None, None))
+        window = "discharge" if t0 is not None and t1 > t0 else "whole record"
+        if window == "whole record":
+            t0, t1 = float(np.nanmin(h["t"])), float(np.nanmax(h["t"]))
+        sc = self.scene
+        f_theory = None
+        if sc is not None:
+            m = sc.material
+            f_theory = theory.longitudinal_frequency(m.youngs_modulus, m.poisson_ratio, m.density,
+                                                     sc.geometry.fill_height)
+        fig, ax = plt.subplots(figsize=(10, 5))
+        rows = []
+        for k in np.unique(h["station"]).astype(int):
+            sel = (h["station"] == k) & (h["t"] >= t0) & (h["t"] <= t1)
+            if sel.sum() < 16:
+                continue
+            sp = analysis.spectrum(h["t"][sel], h["p_n"][sel])
+            ax.plot(sp.frequency, sp.amplitude, lw=0.8, label=f"z = {np.nanmean(h['z'][sel]):.2f} m")
+            pk = sp.peaks(2, min_frequency=sp.resolution)
+            rows.append((np.nanmean(h["z"][sel]), pk, sp.resolution))
+        if not rows:
+            plt.close(fig)
+            self.missing.append("spectra (too few samples)")
+            return
+        if f_theory:
+            ax.axvline(f_theory, color="r", ls="--", lw=1, label=f"eq. 4-12: {f_theory:.2f} Hz")
+        ax.set_xscale("log")
+        ax.set_xlabel("frequency (Hz)")
+        ax.set_ylabel("amplitude of p_n (Pa)")
+        ax.legend(fontsize=7, ncol=2)
+        ax.grid(alpha=0.3, which="both")
+        self._save(fig, "spectra.png", f"Amplitude spectra of p_n ({window}); dashed: eq. 4-12.")
+        z, pk, res = rows[len(rows) // 2]
+        self.numbers.append((f"spectral peaks at z = {z:.2f} m ({window})",
+                             ", ".join(f"{p:.3g} Hz" for p in pk) + f" (resolution {res:.3g} Hz)"))
+        if f_theory:
+            self.numbers.append(("eq. 4-12 longitudinal frequency", f"{f_theory:.3g} Hz"))
+
+    def outlet(self) -> None:
+        import matplotlib.pyplot as plt
+
+        d = _read_csv(self.folder / "outlet.csv")
+        if d is None:
+            self.missing.append("outlet flow (outlet.csv: written during discharge)")
+            return
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+        a1.plot(d["t"], d["mean_outlet_velocity"], "k-", lw=0.8)
+        a1.set_ylabel("mean outlet velocity (m/s)")
+        a1.grid(alpha=0.3)
+        a2.plot(d["t"], d["mass_flow_rate"], "k-", lw=0.8, label="simulation")
+        sc = self.scene
+        if sc is not None and sc.geometry.shape != "column":
+            D0 = 2 * sc.geometry.outlet_radius
+            Wb = theory.beverloo(sc.material.density, D0, gravity=sc.loads.gravity)
+            a2.axhline(Wb, color="r", ls="--", label=f"Beverloo {Wb:.3g} kg/s")
+            steady = d["t"] > d["t"][0] + 0.5 * (d["t"][-1] - d["t"][0])
+            if np.any(steady):
+                mean = float(np.nanmean(d["mass_flow_rate"][steady]))
+                self.numbers.append(("mean mass flow, second half of discharge",
+                                     f"{mean:.4g} kg/s (Beverloo {Wb:.4g} kg/s, {100 * (mean - Wb) / Wb:+.1f} %)"))
+        a2.set_xlabel("time t (s)")
+        a2.set_ylabel("mass flow rate (kg/s)")
+        a2.legend(fontsize=8)
+        a2.grid(alpha=0.3)
+        self._save(fig, "outlet.png", "Outlet velocity and mass flow rate against Beverloo.")
+
+    def energy(self) -> None:
+        import matplotlib.pyplot as plt
+
+        d = _read_csv(self.folder / "energy.csv")
+        if d is None:
+            self.missing.append("energy history (energy.csv)")
+            return
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+        for k in ("kinetic", "elastic", "plastic", "viscous", "damping", "gravity_work", "external_work",
+                  "contact_work"):
+            if k in d and np.nanmax(np.abs(d[k])) > 0:
+                a1.plot(d["t"], d[k], lw=1, label=k)
+        a1.set_ylabel("energy (J)")
+        a1.legend(fontsize=7, ncol=2)
+        a1.grid(alpha=0.3)
+        a2.semilogy(d["t"], np.maximum(d["relative_error"], 1e-12), "k-", lw=0.8)
+        a2.set_ylabel("|balance| / energy scale")
+        a2.set_xlabel("time t (s)")
+        a2.grid(alpha=0.3, which="both")
+        self._save(fig, "energy.png", "Energy terms and the balance error.")
+
+    def _snapshot(self):
+        snaps = sorted((self.folder / "fields").glob("snapshot_*.npz"))
+        if not snaps:
+            return None
+        return dict(np.load(snaps[-1]))
+
+    def flow_channel(self) -> None:
+        import matplotlib.pyplot as plt
+        from scipy.interpolate import griddata
+
+        snap = self._snapshot()
+        t0, t1 = self._stage_times().get("discharge", (np.inf, np.inf))
+        if snap is None or self.scene is None or not t0 < float(snap["t"]) <= t1 + 1e-9:
+            self.missing.append("flow-channel boundary (needs a field snapshot during discharge)")
+            return
+        xy, v = snap["node_xy"], snap["node_velocity"]
+        if np.nanmax(np.abs(v[:, 1])) == 0:
+            self.missing.append("flow-channel boundary (no flow in the last snapshot)")
+            return
+        wall = self.scene.outline.wall
+        zs = np.linspace(0.02 * xy[:, 1].max(), 0.98 * xy[:, 1].max(), 60)
+        rw = wall.radius_at(zs)
+        frac = np.linspace(0.0, 1.0, 101)
+        R = rw[:, None] * frac[None, :]
+        Z = np.repeat(zs[:, None], frac.size, axis=1)
+        VZ = griddata(xy, v[:, 1], (R, Z), method="linear")
+        VZ = np.where(np.isnan(VZ), griddata(xy, v[:, 1], (R, Z), method="nearest"), VZ)
+        z_rows, r_fcb = analysis.flow_channel_boundary(R, Z, VZ, 1e-3)
+        fig, ax = plt.subplots(figsize=(5, 8))
+        s = np.linspace(0, wall.length, 300)
+        wp = wall.point_at(s)
+        ax.plot(wp[:, 0], wp[:, 1], "k-", lw=1.5, label="wall")
+        ax.plot(np.where(np.isnan(r_fcb), rw, r_fcb), z_rows, "r.-", label="FCB, v_z = 0.001 × centreline")
+        ax.set_xlabel("r (m)")
+        ax.set_ylabel("z (m)")
+        ax.set_aspect("equal")
+        ax.legend(fontsize=8)
+        ax.set_title(f"t = {float(snap['t']):.3g} s")
+        self._save(fig, "flow_channel.png", "Flow-channel boundary at the last snapshot (ch. 6.4.3 criterion).")
+        et = analysis.effective_transition(z_rows, r_fcb, rw)
+        self.numbers.append(("effective transition (FCB meets the wall)",
+                             "none (mass flow at every height)" if np.isnan(et) and np.all(np.isnan(r_fcb)) else
+                             f"{et:.3g} m"))
+
+    def renders(self) -> None:
+        snap = self._snapshot()
+        if snap is None:
+            self.missing.append("field renders (no field snapshot)")
+            return
+        import pyvista as pv
+        import vtk
+
+        pv.OFF_SCREEN = True
+        vtk.vtkLogger.SetStderrVerbosity(vtk.vtkLogger.VERBOSITY_OFF)  # no "bad X server" noise headless
+        corners = snap["corners"]
+        n = corners.shape[0]
+        pts = np.column_stack([corners.reshape(-1, 2), np.zeros(4 * n)])
+        cells = np.column_stack([np.full(n, 4), np.arange(4 * n).reshape(n, 4)]).ravel()
+        if "cell_q_over_p" in snap:
+            grid = pv.UnstructuredGrid(cells, np.full(n, pv.CellType.QUAD, np.uint8), pts)
+            grid.cell_data["q/p"] = snap["cell_q_over_p"]
+            self._render(grid, "q/p", "field_q_over_p.png", f"Stress ratio q/p (eq. 4-11) at t = {float(snap['t']):.3g} s.")
+        speed = np.linalg.norm(snap["node_velocity"], axis=1)
+        cloud = pv.PolyData(np.column_stack([snap["node_xy"], np.zeros(len(speed))]))
+        cloud.point_data["|v| (m/s)"] = speed
+        self._render(cloud, "|v| (m/s)", "field_velocity.png", f"Speed at the nodes, t = {float(snap['t']):.3g} s.",
+                     points=True)
+
+    def _render(self, mesh, scalars, name, caption, points=False):
+        import pyvista as pv
+
+        p = pv.Plotter(off_screen=True, window_size=(700, 900))
+        if points:
+            p.add_mesh(mesh, scalars=scalars, point_size=6, render_points_as_spheres=True, cmap="viridis")
+        else:
+            p.add_mesh(mesh, scalars=scalars, cmap="viridis", show_edges=False)
+        p.view_xy()
+        p.screenshot(str(self.folder / name))
+        p.close()
+        self.figures.append((name, caption))
+
+    # ------------------------------------------------------------------ text
+    def _title(self) -> str:
+        return (self.scene.title if self.scene else None) or self.summary.get("title") or self.folder.name
+
+    def key_numbers(self) -> None:
+        s = self.summary
+        pairs = [("status", s.get("status", "unknown") + (f" — {s['error']}" if s.get("error") else "")),
+                 ("cells", s.get("cells")), ("steps", s.get("steps")),
+                 ("simulated time", f"{s['simulated_time']:.6g} s" if "simulated_time" in s else None),
+                 ("wall-clock", f"{s['wall_clock_s']:.1f} s" if "wall_clock_s" in s else None),
+                 ("steps per second", f"{s['steps_per_second']:.0f}" if "steps_per_second" in s else None),
+                 ("ranks", s.get("ranks")),
+                 ("initial stable Δt", f"{s['stable_dt_initial']:.3g} s" if "stable_dt_initial" in s else None),
+                 ("energy balance error (max)", f"{100 * s['energy_balance_error_max']:.3f} %"
+                  if "energy_balance_error_max" in s else None)]
+        self.numbers = [(k, str(v)) for k, v in pairs if v is not None] + self.numbers
+
+    def write(self) -> Path:
+        for part in (self.wall_profiles, self.wall_histories, self.spectra, self.outlet, self.flow_channel,
+                     self.energy, self.renders):
+            try:
+                part()
+            except Exception as e:  # a broken part must not lose the others
+                self.missing.append(f"{part.__name__}: {type(e).__name__}: {e}")
+        self.key_numbers()
+        sc = self.scene
+        lines = [f"# {self._title()}", ""]
+        if sc is not None:
+            if sc.description:
+                lines += [sc.description, ""]
+            g, m = sc.geometry, sc.material
+            lines += [f"Geometry: `{g.shape}`, fill height {g.fill_height:g} m. Material: `{m.model}`, "
+                      f"ρ {m.density:g} kg/m³, E {m.youngs_modulus:g} Pa, ν {m.poisson_ratio:g}"
+                      + (f", β {m.friction_angle:g}°, ψ {m.dilation_angle:g}°" if "friction_angle" in m else "")
+                      + f". Wall: `{sc.wall.friction}`.", ""]
+        lines += ["## Key numbers", "", "| quantity | value |", "|---|---|"]
+        lines += [f"| {k} | {v} |" for k, v in self.numbers]
+        lines += ["", "## Figures", ""]
+        for name, caption in self.figures:
+            lines += [f"![{caption}]({name})", "", caption, ""]
+        if self.missing:
+            lines += ["## Not available", ""] + [f"- {m}" for m in self.missing] + [""]
+        path = self.folder / "report.md"
+        path.write_text("\n".join(lines))
+        return path
+
+
+def make_report(folder: str | Path) -> Path:
+    """Write every figure the folder's files allow and report.md; returns its path."""
+    return Report(folder).write()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(make_report(sys.argv[1]))

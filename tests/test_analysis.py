@@ -1,0 +1,79 @@
+"""Analysis functions on synthetic data with known answers."""
+
+import math
+
+import numpy as np
+import pytest
+
+from silo_dolfinx import analysis
+
+
+def test_spectrum_finds_5_hz_and_0_7_hz_within_one_bin():
+    rate, T = 200.0, 60.0  # the ch. 4 discharge: 60 s at 200 Hz
+    t = np.arange(0.0, T, 1.0 / rate)
+    x = 1000.0 + 30.0 * t + 400.0 * np.sin(2 * math.pi * 0.7 * t) + 100.0 * np.sin(2 * math.pi * 5.0 * t + 0.3)
+    sp = analysis.spectrum(t, x)
+    assert abs(sp.resolution - 1 / T) < 1e-3 / T
+    peaks = sp.peaks(2, min_frequency=0.1)
+    assert abs(peaks[0] - 0.7) < sp.resolution and abs(peaks[1] - 5.0) < sp.resolution
+    # amplitudes are window-corrected (a Hann window loses 50 % coherent gain otherwise)
+    i = np.argmin(abs(sp.frequency - 5.0))
+    assert abs(sp.amplitude[i] - 100.0) < 3.0
+
+
+def test_time_average_eq_4_9():
+    t = np.linspace(0, 10, 1001)
+    p = 3.0 + np.sin(2 * math.pi * t)
+    assert abs(analysis.time_average(t, p, 2.0, 6.0) - 3.0) < 1e-2
+    with pytest.raises(ValueError):
+        analysis.time_average(t, p, 20.0, 30.0)
+
+
+def test_representative_deviation_eqs_3_13_and_5_18():
+    p0 = np.array([1.0, 2.0, 4.0])
+    assert analysis.representative_deviation(p0 * 1.1, p0) == pytest.approx(0.1, rel=1e-12)
+    assert analysis.representative_deviation([1.1, 0.9], [1.0, 1.0], normaliser=2.0) == pytest.approx(0.05)
+
+
+def test_discharge_volume_percentage_eq_6_2():
+    assert np.allclose(analysis.discharged_volume_percentage(2.0, [2.0, 1.8, 0.0]), [0.0, 10.0, 100.0])
+
+
+def test_outlet_mass_flow_of_a_uniform_profile():
+    r = np.linspace(0, 0.1, 21)
+    w = analysis.outlet_mass_flow(r, -np.full_like(r, 1.0), 1000.0)
+    assert w == pytest.approx(1000.0 * math.pi * 0.1**2, rel=1e-12)  # ρ v π R²
+    t = np.linspace(0, 1, 11)
+    assert np.allclose(analysis.flow_rate_from_mass(t, 5.0 * t), 5.0)
+
+
+def test_flow_channel_boundary_recovered_exactly():
+    """A field whose |v_z| falls linearly to zero at r = b(z): the 0.001 criterion crosses at
+    r = b(z)(1 − 0.001) exactly (linear interpolation of a linear profile); above z = 1 the
+    whole row flows (mass flow) and the boundary is reported as nan."""
+    z = np.linspace(0.05, 2.0, 40)
+    r = np.linspace(0.0, 0.35, 71)
+    R, Z = np.meshgrid(r, z)
+    b = np.where(Z < 1.0, 0.05 + 0.3 * Z, 10.0)  # channel radius grows with height, then mass flow
+    VZ = -np.clip(1.0 - R / b, 0.0, None) - np.where(Z >= 1.0, 0.0, 0.0)
+    zr, fcb = analysis.flow_channel_boundary(R, Z, VZ, 1e-3)
+    lower = zr < 1.0
+    assert np.allclose(fcb[lower], (0.05 + 0.3 * zr[lower]) * (1 - 1e-3), rtol=0, atol=1e-12)
+    assert np.all(np.isnan(fcb[~lower]))
+    assert analysis.effective_transition(zr, fcb, np.full_like(zr, 0.35)) == pytest.approx(zr[~lower].min())
+    # the same from scattered points
+    zr2, fcb2 = analysis.flow_channel_boundary(R.ravel(), Z.ravel(), VZ.ravel(), 1e-3)
+    assert np.allclose(fcb2[lower], fcb[lower], atol=1e-12)
+
+
+def test_stress_ratio_and_orientation():
+    # at rest in a silo: σ_zz more compressive -> major principal stress vertical (90°)
+    sig = np.array([[-4.0, -10.0, -4.0, 0.0], [-10.0, -4.0, -4.0, 0.0], [-7.0, -7.0, -7.0, 3.0]])
+    ang = analysis.stress_orientation(sig)
+    assert ang[0] == pytest.approx(90.0) and ang[1] == pytest.approx(0.0)
+    assert abs(ang[2]) == pytest.approx(45.0)
+    p, q = analysis.invariants(sig[:1])
+    assert p[0] == pytest.approx(6.0) and q[0] == pytest.approx(6.0)  # q = |σ_zz − σ_rr| here
+    assert analysis.stress_ratio(sig[:1])[0] == pytest.approx(1.0)
+    # strain rate: elongation along r -> major direction horizontal
+    assert analysis.strain_rate_orientation([[1.0, -1.0, 0.0, 0.0]])[0] == pytest.approx(0.0)

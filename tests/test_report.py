@@ -1,0 +1,114 @@
+"""`silo report` on a synthetic results folder made here: every figure and the table.
+
+Serial only: the report is written by one process (rank 0) into one folder; under mpirun
+the CLI returns at once on other ranks (checked in test_cli via main())."""
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+from conftest import SCENES
+
+from silo_dolfinx.cli import main
+from silo_dolfinx.report import make_report
+from silo_dolfinx.scene import load_scene
+
+pytestmark = pytest.mark.serial
+
+
+def write_csv(path, header, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(rows)
+
+
+@pytest.fixture
+def synthetic(tmp_path):
+    """A complete results folder of the ch. 4 hopper with known signals."""
+    scene = load_scene(SCENES / "hopper_ch4.toml")
+    d = tmp_path / "synthetic"
+    d.mkdir()
+    (d / "scene.toml").write_text(scene.to_toml())
+    stages = [{"name": "fill", "t_start": 0.0, "t_end": 10.0}, {"name": "store", "t_start": 10.0, "t_end": 12.0},
+              {"name": "discharge", "t_start": 12.0, "t_end": 72.0}]
+    (d / "summary.json").write_text(json.dumps({"status": "completed", "title": "synthetic", "cells": 8400,
+                                                "steps": 123, "simulated_time": 72.0, "wall_clock_s": 1.0,
+                                                "steps_per_second": 123.0, "ranks": 2, "stages": stages,
+                                                "stable_dt_initial": 1e-4, "energy_balance_error_max": 0.004}))
+    t = np.arange(0.0, 72.0, 0.005)
+    stations = [0.33, 0.66, 1.32]
+    rows = []
+    for k, z in enumerate(stations):
+        p = 5000 + 800 * np.sin(2 * math.pi * 0.7 * t) + 150 * np.sin(2 * math.pi * 5.0 * t)
+        rows += [[ti, k, z, 0.1 + z * 0.4, z, pi, 0.267 * pi, -0.1] for ti, pi in zip(t, p)]
+    rows.sort(key=lambda r: r[0])
+    write_csv(d / "wall_history.csv", ["t", "station", "s", "r", "z", "p_n", "p_s", "slip_velocity"], rows)
+    z = np.linspace(0, 2.64, 40)
+    for stage in ("fill", "store", "discharge"):
+        pn = 9000 * np.sin(np.pi * z / 2.64) + 500
+        write_csv(d / f"wall_profile_{stage}.csv", ["s", "r", "z", "p_n", "p_s", "slip_velocity", "in_contact"],
+                  [[zi / 0.92, 0.1 + zi * 0.41, zi, p, 0.267 * p, -0.2, 1.0] for zi, p in zip(z, pn)])
+    te = np.linspace(0, 72, 200)
+    write_csv(d / "energy.csv", ["t", "stage", "kinetic", "elastic", "plastic", "viscous", "damping", "gravity_work",
+                                 "external_work", "contact_work", "balance", "relative_error"],
+              [[ti, "fill", 1.0, 100.0 * ti, 1.0, 0.1, 0.0, 150.0 * ti, 150 * ti, -40.0, 0.01, 0.001] for ti in te])
+    to = np.linspace(12, 72, 300)
+    write_csv(d / "outlet.csv", ["t", "mass_flow_rate", "discharged_mass", "mean_outlet_velocity"],
+              [[ti, 32.0 * (1 - math.exp(-(ti - 12))), 32.0 * (ti - 12), 1.0 * (1 - math.exp(-(ti - 12)))] for ti in to])
+    # a snapshot during discharge: quads on a 10 × 20 grid inside the hopper, mass flow above z = 1
+    (d / "fields").mkdir()
+    ri, zi = np.linspace(0, 1, 11), np.linspace(0, 2.64, 21)
+    corners, cells_q = [], []
+    for a in range(10):
+        for b in range(20):
+            cz = [zi[b], zi[b], zi[b + 1], zi[b + 1]]
+            cr = [ri[a], ri[a + 1], ri[a + 1], ri[a]]
+            corners.append([[r * (0.1 + zz * 0.4167), zz] for r, zz in zip(cr, cz)])
+            cells_q.append(0.3 + 0.02 * a)
+    R, Z = np.meshgrid(ri, zi)
+    xy = np.column_stack([(R * (0.1 + Z * 0.4167)).ravel(), Z.ravel()])
+    vz = -np.where(Z.ravel() > 1.0, 1.0, np.clip(1.0 - R.ravel() / 0.6, 0.0, None))
+    np.savez(d / "fields" / "snapshot_0000.npz", t=30.0, corners=np.array(corners), node_xy=xy,
+             node_velocity=np.column_stack([0 * vz, vz]), cell_q_over_p=np.array(cells_q))
+    return d
+
+
+def test_report_writes_every_figure_and_the_table(synthetic):
+    path = make_report(synthetic)
+    text = path.read_text()
+    for name in ("wall_pressure_fill.png", "wall_pressure_store.png", "wall_pressure_discharge.png",
+                 "wall_history.png", "spectra.png", "outlet.png", "flow_channel.png", "energy.png",
+                 "field_q_over_p.png", "field_velocity.png"):
+        assert (synthetic / name).is_file() and (synthetic / name).stat().st_size > 5000, name
+        assert f"({name})" in text, name
+    assert "## Not available" not in text
+    # key numbers: the spectrum finds the two synthetic frequencies, Beverloo is compared
+    row = next(line for line in text.splitlines() if line.startswith("| spectral peaks"))
+    peaks = sorted(float(v.split()[0]) for v in row.split("|")[2].split("(")[0].split(","))
+    assert abs(peaks[0] - 0.7) < 0.02 and abs(peaks[1] - 5.0) < 0.02
+    assert "Beverloo 32.5 kg/s" in text and "eq. 4-12 longitudinal frequency | 5.15 Hz" in text
+    assert "| effective transition (FCB meets the wall) |" in text
+    assert "| mobilised p_s/p_n, end of discharge" in text and "mean 0.2670" in text
+
+
+def test_report_on_a_partial_folder(synthetic):
+    for name in ("outlet.csv", "wall_profile_discharge.csv"):
+        (synthetic / name).unlink()
+    for f in (synthetic / "fields").iterdir():
+        f.unlink()
+    s = json.loads((synthetic / "summary.json").read_text())
+    s["status"] = "running"
+    (synthetic / "summary.json").write_text(json.dumps(s))
+    text = make_report(synthetic).read_text()
+    assert "| status | running |" in text
+    assert "## Not available" in text and "outlet flow" in text and "field renders" in text
+    assert (synthetic / "wall_pressure_fill.png").is_file()
+
+
+def test_silo_report_command(synthetic, capsys):
+    assert main(["report", str(synthetic)]) == 0
+    assert "report.md: written" in capsys.readouterr().out
+    assert main(["report", str(synthetic / "nope")]) == 2

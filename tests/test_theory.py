@@ -1,0 +1,127 @@
+"""Closed forms against numbers worked out by hand from the thesis, and against independent
+numerical integration."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from silo_dolfinx import theory
+
+# ch. 4 hopper
+H, RT, R0 = 2.64, 1.2, 0.1
+ALPHA = math.degrees(math.atan((RT - R0) / H))
+
+
+def test_eq_4_12_gives_5_2_hz():
+    # thesis: √(550000·0.7/(1000·1.3·0.4)) / (2·2.64) ≅ 5.2 Hz
+    f = theory.longitudinal_frequency(5.5e5, 0.3, 1000.0, 2.64)
+    assert abs(f - 5.15341) < 1e-4 and round(f, 1) == 5.2
+
+
+def test_beverloo_for_the_ch4_outlet():
+    # C 0.58, D0 0.2 m, λ 1.5, d 0: W = 0.58·1000·√9.81·0.2^2.5 = 32.497 kg/s; F(22.6°, 67.4°) = 1
+    w = theory.beverloo(1000.0, 0.2)
+    assert abs(w - 32.4966) < 1e-3
+    assert theory.rose_tanaka_factor(22.6, 67.4) == 1.0
+    assert abs(theory.rose_tanaka_factor(10.0, 60.0) - (math.tan(math.radians(10)) * math.tan(math.radians(60))) ** -0.35) < 1e-14
+
+
+@pytest.mark.parametrize("D,mu,k,X0,fe", [(1, 0.3, 0.55, 1.51, 0.30), (1, 0.5, 0.7, 0.71, 0.53),
+                                          (1, 0.3, 0.32, 2.61, 0.16), (1, 0.3, 0.4, 2.08, 0.22),
+                                          (0.5, 0.3, 0.65, 0.64, 0.70)])
+def test_table_5_2_exponents_follow_one_over_2x0(D, mu, k, X0, fe):
+    """Our 1/(2X0) from D, μ, k matches the table's X0 column (given to 2-3 digits: 1 %)."""
+    assert abs(theory.janssen_depth(D / 2, mu, k) - X0) / X0 < 0.01
+    assert abs(theory.wensrich_exponent(D, mu, k) - 1 / (2 * X0)) / (1 / (2 * X0)) < 0.01
+    # and the thesis' FE exponents lie within 25 % of the theory (its own finding, Fig. 5-9)
+    assert abs(fe - 1 / (2 * X0)) / (1 / (2 * X0)) < 0.25
+
+
+@pytest.mark.parametrize("sign", [1, -1])
+def test_tapered_growth_tends_to_the_parallel_column(sign):
+    x = np.linspace(0.0, 4.0, 9)
+    parallel = theory.wave_growth(x, 1.0, 0.3, 0.55)
+    tapered = theory.wave_growth(x, 1.0, 0.3, 0.55, half_angle=sign * 1e-7)
+    assert np.allclose(tapered, parallel, rtol=1e-6)
+
+
+def test_diverging_grows_faster_than_converging_far_up():
+    x = 4.0
+    div = theory.wave_growth(x, 1.0, 0.3, 0.55, -3.0)
+    par = theory.wave_growth(x, 1.0, 0.3, 0.55, 0.0)
+    con = theory.wave_growth(x, 1.0, 0.3, 0.55, 3.0)
+    assert div > par > con  # ch. 5.2.4: diverging enhances, converging reduces the growth
+
+
+def test_walker_matches_numerical_slice_integration():
+    """Eq. 4-2 against integrating the slice equilibrium dσ/dh' = m σ/h' − γ downwards from
+    σ(h_a) = Q0, for Walker's m (κ = ±1) and McLean's m, with and without surcharge."""
+    gamma = 9810.0
+    h0 = R0 / math.tan(math.radians(ALPHA))
+    ha = H + h0
+    z = np.linspace(0.0, H, 41)
+    for m in (theory.walker_parameters(30.0, 0.267, ALPHA, -1)[1], theory.walker_parameters(30.0, 0.267, ALPHA, 1)[1],
+              theory.mclean_m(0.267, ALPHA), 1.0):
+        for q0 in (0.0, 5e3):
+            sol = solve_ivp(lambda h, s: m * s / h - gamma, (ha, h0), [q0], t_eval=(z + h0)[::-1], rtol=1e-12,
+                            atol=1e-9)
+            num = sol.y[0][::-1]
+            closed = theory.hopper_vertical_stress(z, m, ALPHA, R0, H, gamma, q0)
+            assert np.allclose(closed, num, rtol=1e-6, atol=1e-6 * gamma * H)
+
+
+def test_walker_parameters_are_consistent_with_slice_equilibrium():
+    """F and m of eqs. 4-1/4-3 satisfy m ≈ 2[F(1 + μ cot α) − 1] (the slice balance with the
+    wall stress ratio F; Walker's distribution factor makes it approximate: 2 %)."""
+    mu = 0.267
+    for kappa in (-1, 1):
+        F, m = theory.walker_parameters(30.0, mu, ALPHA, kappa)
+        slice_m = 2 * (F * (1 + mu / math.tan(math.radians(ALPHA))) - 1)
+        assert abs(m - slice_m) < 0.02 * max(1.0, abs(m))
+
+
+def test_janssen_limits():
+    ph, pw, pv = theory.janssen(np.array([0.0, 1e-6, 100.0]), 0.35, 0.63, 0.38, 14270.0)
+    z0 = 0.35 / (2 * 0.38 * 0.63)
+    assert ph[0] == 0.0
+    assert abs(pv[1] - 14270.0 * 1e-6) < 1e-5 * 14270.0 * 1e-6  # hydrostatic at the surface (+ O(z/z0))
+    assert abs(pv[2] - 14270.0 * z0) < 1e-9 and abs(pw[2] - 0.63 * ph[2]) < 1e-12  # asymptote γ z0
+    # a surcharge equal to the asymptote keeps the stress uniform (the ch. 5 initial state)
+    _, _, pv = theory.janssen(np.linspace(0, 5, 6), 0.5, 0.3, 0.55, 1500 * 9.81, surcharge=1500 * 9.81 * 1.0 / (4 * 0.3 * 0.55))
+    assert np.allclose(pv, pv[0], rtol=1e-12)
+
+
+def test_en1991_filling_ratio_is_the_thesis_form():
+    mu, a = 0.67, 20.0
+    F_thesis = (1 + 0.8 * mu / math.tan(math.radians(a))) / (1 + mu / math.tan(math.radians(a)))
+    pn, pt = theory.en1991_hopper(np.array([0.3]), mu, a, 0.1, 0.687, 15000.0)
+    sv = theory.hopper_vertical_stress(np.array([0.3]), 2 * (F_thesis * mu / math.tan(math.radians(a)) + F_thesis) - 2,
+                                       a, 0.1, 0.687, 15000.0)
+    assert np.allclose(pn, F_thesis * sv, rtol=1e-13) and np.allclose(pt, mu * pn, rtol=1e-13)
+
+
+def test_dynamic_friction_eq_7_1():
+    mu = theory.dynamic_friction(np.array([0.0, 0.08, 0.2, 1e3]), 0.67, 0.3, 2.0)
+    assert mu[0] == 0.67 and abs(mu[-1] - 0.3) < 1e-12
+    # ch. 7: the thesis reports an effective μ of 0.62 -> 0.54 for slip 0.08 -> 0.2 m/s;
+    # eq. 7-1 gives 0.3 + 0.37 e^{-0.16} = 0.6153 and 0.3 + 0.37 e^{-0.4} = 0.5480
+    assert abs(mu[1] - 0.6153) < 1e-4 and abs(mu[2] - 0.5480) < 1e-4
+    assert round(mu[1], 2) == 0.62 and round(mu[2], 2) == 0.55
+
+
+@pytest.mark.parametrize("call", [
+    lambda: theory.beverloo(-1.0, 0.2),
+    lambda: theory.beverloo(1000.0, 0.01, particle_size=0.01),
+    lambda: theory.longitudinal_frequency(5.5e5, 0.5, 1000, 2.64),
+    lambda: theory.walker_parameters(30.0, 0.7, 20.0),  # atan μ > φ
+    lambda: theory.walker_parameters(30.0, 0.2, 20.0, kappa=0),
+    lambda: theory.wave_growth(3.0, 1.0, 0.3, 0.55, -10.0),  # beyond the apex
+    lambda: theory.janssen(-1.0, 0.35, 0.6, 0.4, 1e4),
+    lambda: theory.dynamic_friction(0.1, 0.3, 0.6, 2.0),
+    lambda: theory.thick_cylinder_limit_pressure(1e4, 1.0, 0.5),
+])
+def test_inputs_outside_the_validity_range_are_refused(call):
+    with pytest.raises(ValueError):
+        call()

@@ -205,3 +205,35 @@ def strain_rate_orientation(d):
     rates (rr, zz, θθ, γ_rz) with engineering shear."""
     d = np.atleast_2d(np.asarray(d, float))
     return principal_angle(d[:, 0], d[:, 1], 0.5 * d[:, 3], "largest")
+
+
+# ---------------------------------------------------------------------------- sections of a snapshot
+def cell_areas(corners) -> np.ndarray:
+    """Areas of quadrilaterals (n, 4, 2) given in boundary-cycle order."""
+    c = np.asarray(corners, float)
+    x, y = c[:, :, 0], c[:, :, 1]
+    return 0.5 * np.abs(np.sum(x * np.roll(y, -1, 1) - np.roll(x, -1, 1) * y, axis=1))
+
+
+def section_average(corners, values, z) -> np.ndarray:
+    """Cross-section average at heights z of a cell field: ∫ v 2πr dA over the cells whose
+    vertical extent contains z, divided by their ∫ 2πr dA (a volume-weighted mean over a
+    one-cell-thick slab; nan if no cell spans z)."""
+    c = np.asarray(corners, float)
+    zlo, zhi = c[:, :, 1].min(axis=1), c[:, :, 1].max(axis=1)
+    w = cell_areas(c) * c[:, :, 0].mean(axis=1)
+    v = np.asarray(values, float)
+    out = np.full(np.size(z), np.nan)
+    for k, zk in enumerate(np.atleast_1d(z)):
+        sel = (zlo <= zk) & (zhi >= zk)
+        if np.any(sel):
+            out[k] = np.sum(w[sel] * v[sel]) / np.sum(w[sel])
+    return out
+
+
+def lateral_pressure_ratio(snapshot: dict, wall_profile: dict, z) -> np.ndarray:
+    """K(z) = wall normal pressure / cross-section mean vertical stress (both compressive),
+    the definition of the issue on Janssen: p_h(z) / (−σ̄_zz(z))."""
+    szz = section_average(snapshot["corners"], snapshot["cell_stress_zz"], z)
+    ph = np.interp(z, wall_profile["z"], wall_profile["p_n"])
+    return ph / -szz

@@ -15,7 +15,8 @@ predictor v*:
    Δv = (g/Δt) n; the normal contact force is N = M |g| / (Δt Δt̄);
 3. friction: the force that would stop tangential slip is T = M |v_t| / Δt̄; if T ≤ μ N the
    node sticks (v_t = 0), else it slips with T = μ N opposing the slip; μ is constant
-   (Coulomb) or μ_k + (μ_s − μ_k) exp(−ϖ v_slip) (eq. 7-1) at the predicted slip speed;
+   (Coulomb) or μ_k + (μ_s − μ_k) exp(−ϖ v_slip) (eq. 7-1, μ_s deciding stick) evaluated at
+   the slip speed that results from the step (solved by fixed-point iteration);
 4. separation (g ≥ 0) costs nothing: no force.
 
 Wall pressures are the forces over the node's tributary area ∫ N_a 2π r ds.
@@ -170,14 +171,25 @@ def _correct(v, dofs, mass, gap, normal, piece, laws, dt, dt_avg, frictionless, 
         elif kind == 1:
             mu = law[1]
         else:
-            mu = law[3] + (law[2] - law[3]) * math.exp(-law[4] * abs(vt))
+            mu = law[2]  # static: μ at zero slip speed decides stick
         T_stick = mass[i] * abs(vt) / dt_avg
-        T_max = mu * N
-        if T_stick <= T_max:
+        if T_stick <= mu * N:
             dv = -vt
             T_out[k] = -mass[i] * vt / dt_avg
         else:
             sgn = 1.0 if vt > 0.0 else -1.0
+            if kind == 2:
+                # μ at the slip speed that results: v = |v*| − μ(v) N Δt̄/M, by fixed point (a
+                # contraction: |dμ/dv| N Δt̄/M ≤ ϖ (μs − μk) N Δt̄/M, small)
+                h = N * dt_avg / mass[i]
+                speed = abs(vt)
+                for _ in range(50):
+                    mu = law[3] + (law[2] - law[3]) * math.exp(-law[4] * speed)
+                    speed_new = abs(vt) - mu * h
+                    if abs(speed_new - speed) <= 1e-13 * (1.0 + abs(vt)):
+                        break
+                    speed = speed_new
+            T_max = mu * N
             dv = -sgn * T_max * dt_avg / mass[i]
             T_out[k] = -sgn * T_max
         v[i, 0] += dv * tr

@@ -139,7 +139,8 @@ class SiloModel:
         return b.array.reshape(-1, 2).copy()
 
     def layers(self) -> list[np.ndarray]:
-        """Owned cells of each filling layer, bottom first (by initial centroid height)."""
+        """Owned cells of each filling layer, bottom first (by initial centroid height; the
+        mesher makes the layer tops mesh lines, so each layer is a full horizontal slab)."""
         n = self.scene.fill.layers if self.scene.fill.method == "layers" else 1
         from silo_dolfinx.geometry.quality import cell_corners
 
@@ -229,6 +230,7 @@ class Recorder:
         self.wall_csv = results.series("wall_history.csv", self.WALL_COLUMNS)
         self.max_abs_balance = 0.0  # largest |balance| seen, J
         self._last_t = None
+        self._last_fields = None
         self._fields = None
 
     def maybe(self, stage: str) -> None:
@@ -261,6 +263,13 @@ class Recorder:
                 rows.append([s.t, k, float(ss), *vals])
             self.wall_csv.write(*rows)
 
+    def stage_end(self, stage: str) -> None:
+        """History sample, wall profile and fields at the end of a stage."""
+        self.history(stage)
+        self.profile(stage)
+        if self._last_fields != self.model.solver.t:
+            self.fields()
+
     def profile(self, stage: str) -> None:
         w = self.model.wall_state()
         if w is not None:
@@ -271,6 +280,7 @@ class Recorder:
         fw = self._fields or FieldWriter(self.model, self.results.path("fields"))
         self._fields = fw
         fw.write(self.model.solver.t)
+        self._last_fields = self.model.solver.t
 
     def close(self) -> None:
         if self._fields is not None:
@@ -431,8 +441,7 @@ def _fill(model: SiloModel, recorder: Recorder, progress) -> list[dict]:
     if f.method == "k0":
         model.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
         model.set_geostatic_stress(f.k0)
-        recorder.history("fill")
-        recorder.profile("fill")
+        recorder.stage_end("fill")
         return [{"name": "fill", "method": "k0", "t_start": 0.0, "t_end": 0.0, "steps": 0}]
     t0, steps0, wall0 = s.t, s.steps, time.time()
     layers = model.layers()
@@ -444,8 +453,7 @@ def _fill(model: SiloModel, recorder: Recorder, progress) -> list[dict]:
         model.activate(active, cells, s.t, f.ramp_fraction * T, last=(k == n - 1))
         recorder.maybe("fill")
         _advance(model, t0 + (k + 1) * T, "fill", recorder, progress, label=f"fill {k + 1}/{n}")
-    recorder.history("fill")
-    recorder.profile("fill")
+    recorder.stage_end("fill")
     return [dict(_stage_record("fill", t0, model, steps0, wall0), method=f.method, layers=n)]
 
 
@@ -460,8 +468,7 @@ def _store(model: SiloModel, recorder: Recorder, progress) -> dict:
             e = s.global_energy()
             return e.kinetic < tol * max(e.gravity, 1e-300)
     _advance(model, t0 + sc.store.duration, "store", recorder, progress, stop)
-    recorder.history("store")
-    recorder.profile("store")
+    recorder.stage_end("store")
     return dict(_stage_record("store", t0, model, steps0, wall0), ended_on="kinetic energy"
                 if s.t < t0 + sc.store.duration * (1 - 1e-9) else "duration")
 
@@ -473,6 +480,5 @@ def _discharge(model: SiloModel, recorder: Recorder, progress) -> dict:
     t0, steps0, wall0 = s.t, s.steps, time.time()
     model.open_outlet()
     _advance(model, t0 + sc.discharge.duration, "discharge", recorder, progress)
-    recorder.history("discharge")
-    recorder.profile("discharge")
+    recorder.stage_end("discharge")
     return dict(_stage_record("discharge", t0, model, steps0, wall0), mode=sc.discharge.mode)

@@ -344,11 +344,12 @@ class ExplicitSolver:
         clock("dt")
         if not (dt_crit > 1e-6 * self._dt_crit0 and math.isfinite(dt_crit)):
             np.copyto(x, self._x_old)
+            hint = (f"[numerics] time_step_scale = {num.time_step_scale:g} exceeds the stability limit: use 0.9 "
+                    "or less." if num.time_step_scale > 0.9 else "the mesh is tangled by large deformation: "
+                    "enable [ale], or refine where it distorts.")
             raise InstabilityError(
                 f"an element collapsed at step {self.steps} (t = {self.t:.6g} s; stable Δt fell from "
-                f"{self._dt_crit0:.3g} to {dt_crit:.3g} s): the explicit integration is unstable or the mesh is "
-                f"tangled. If [numerics] time_step_scale = {num.time_step_scale:g} > 0.9, reduce it; if the "
-                "mesh distorts under large flow, enable [ale].")
+                f"{self._dt_crit0:.3g} to {dt_crit:.3g} s): {hint}")
         if dt > num.time_step_scale * dt_crit * (1.0 + REJECT_TOLERANCE):
             np.copyto(x, self._x_old)
             np.copyto(self.v, self._v_old)

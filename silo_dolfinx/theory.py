@@ -314,3 +314,28 @@ def dynamic_friction(slip_speed, mu_static: float, mu_kinetic: float, decay: flo
     if decay < 0:
         raise ValueError(f"decay = {decay!r}: must be ≥ 0")
     return mu_kinetic + (mu_static - mu_kinetic) * np.exp(-decay * np.abs(np.asarray(slip_speed, float)))
+
+
+# ---------------------------------------------------------------------------- Drucker-Prager at a wall
+def drucker_prager_active_k(friction_angle: float) -> float:
+    """Lateral pressure ratio K = σ_h/σ_v of a cohesionless Drucker-Prager solid at yield in
+    axisymmetric compression (σ_rr = σ_θθ = K σ_zz, the active state of a settling fill):
+    q = p tan β gives K = (3 − tan β)/(3 + 2 tan β). β = 35° gives 0.523; the thesis' Janssen
+    K = 0.38 would need tan β = 1.06 (β ≈ 47°). Valid for 0 ≤ tan β < 3."""
+    t = drucker_prager_limit_ratio(friction_angle)
+    if t >= 3.0:
+        raise ValueError(f"friction_angle = {friction_angle!r}: tan β must be below 3")
+    return (3.0 - t) / (3.0 + 2.0 * t)
+
+
+def drucker_prager_wall_shear_limit(friction_angle: float) -> float:
+    """Largest shear-to-normal stress ratio τ/σ_n a cohesionless Drucker-Prager solid can carry
+    on a plane (the wall): maximising τ under q = p tan β with the two other normal stresses
+    a·σ_n gives a = (9 + 2t²)/(9 − 4t²) and τ/σ_n = √([(1+2a)² t²/9 − (1 − a)²]/3), t = tan β.
+    β = 35° gives 0.457: a wall with μ above this never slides; the solid next to it yields.
+    Valid for tan β < 1.5."""
+    t = drucker_prager_limit_ratio(friction_angle)
+    if t >= 1.5:
+        raise ValueError(f"friction_angle = {friction_angle!r}: tan β must be below 1.5")
+    a = (9.0 + 2.0 * t * t) / (9.0 - 4.0 * t * t)
+    return math.sqrt(((1 + 2 * a) ** 2 * t * t / 9.0 - (1 - a) ** 2) / 3.0)

@@ -16,6 +16,10 @@ Two strategies, chosen by ``[geometry] mesh``:
     thresholds around the outlet edge and the transition). Works for any wall, including
     ledges.
 
+In both, the tops of the filling layers are mesh lines (bands / OCC cuts at the layer
+heights): a layer activated on a jagged top would leave single cells standing proud of the
+fill, which a cohesionless solid cannot support.
+
 Tags (physical groups, names and numbers): cells ``material`` = 1; facets ``wall`` = 1,
 ``outlet`` = 2, ``top`` = 3, ``axis`` = 4. The mesh is built on rank 0 and distributed by
 :func:`dolfinx.io.gmsh.model_to_mesh`.
@@ -49,11 +53,21 @@ class MeshOptions:
     refinement_distance: float = 1.0
     structured: bool = True
     max_aspect_ratio: float = 2.0
+    layer_heights: tuple[float, ...] = ()  # filling-layer boundaries: mesh lines
 
     @classmethod
-    def from_geometry(cls, g) -> MeshOptions:
+    def from_geometry(cls, g, layer_heights=()) -> MeshOptions:
         return cls(g["element_size"], g["outlet_size_factor"], g["transition_size_factor"],
-                   g["refinement_distance"], g["mesh"] == "structured", g["max_aspect_ratio"])
+                   g["refinement_distance"], g["mesh"] == "structured", g["max_aspect_ratio"],
+                   tuple(layer_heights))
+
+    @classmethod
+    def from_scene(cls, scene) -> MeshOptions:
+        """Options of a scene: its geometry, with its filling layers' tops as mesh lines."""
+        f = scene.fill
+        hf = scene.geometry.fill_height
+        layers = [hf * k / f.layers for k in range(1, f.layers)] if f.method == "layers" else []
+        return cls.from_geometry(scene.geometry, layers)
 
     def refinement_points(self, outline: Outline) -> list[tuple[float, float, float]]:
         """(r, z, size) of the points around which the mesh is refined."""
@@ -143,7 +157,7 @@ def _wall_pieces_between(outline: Outline, za: float, zb: float):
 def _band_heights(outline: Outline, opts: MeshOptions) -> list[float]:
     """Band boundaries: wall vertices, fill height, and the ends of every size ramp."""
     hf = outline.fill_height
-    zs = {0.0, hf}
+    zs = {0.0, hf} | {z for z in opts.layer_heights if 0.0 < z < hf}
     for p in outline.wall.pieces:
         if p.end[1] > p.start[1]:
             zs |= {p.start[1], p.end[1]}
@@ -283,41 +297,60 @@ def _structured(outline: Outline, opts: MeshOptions) -> None:
 
 
 def _unstructured(outline: Outline, opts: MeshOptions, scale: float = 1.0) -> None:
+    """One OCC surface bounded by the axis, outlet, wall and top, cut by horizontal lines at
+    the filling-layer heights (so every layer's top is a mesh line), meshed with frontal-
+    Delaunay quadrilaterals under a size field. Boundary curves are tagged by position."""
     import gmsh
 
-    geo = gmsh.model.geo
+    occ = gmsh.model.occ
     hf = outline.fill_height
     h = opts.element_size * scale
-    p_axis0 = geo.addPoint(0.0, 0.0, 0.0)
-    p_out = geo.addPoint(outline.outlet_radius, 0.0, 0.0)
-    wall_curves = []
-    prev = p_out
-    s_top = outline.wall_length_below_fill
     wall = outline.wall
+    s_top = outline.wall_length_below_fill
+    p_axis0 = occ.addPoint(0.0, 0.0, 0.0)
+    p_out = occ.addPoint(outline.outlet_radius, 0.0, 0.0)
+    curves = [occ.addLine(p_axis0, p_out)]
+    prev = p_out
     for i, p in enumerate(wall.pieces):
         s0 = wall._s0[i]
         if s0 >= s_top - 1e-12:
             break
         s1 = min(s0 + p.length, s_top)
         end_xy = wall.point_at(s1)[0]
-        nxt = geo.addPoint(float(end_xy[0]), float(end_xy[1]), 0.0)
+        nxt = occ.addPoint(float(end_xy[0]), float(end_xy[1]), 0.0)
         if isinstance(p, Segment):
-            wall_curves.append(geo.addLine(prev, nxt))
+            curves.append(occ.addLine(prev, nxt))
         else:
-            c = geo.addPoint(p.center[0], p.center[1], 0.0)
-            wall_curves.append(geo.addCircleArc(prev, c, nxt))
+            c = occ.addPoint(p.center[0], p.center[1], 0.0)
+            curves.append(occ.addCircleArc(prev, c, nxt))
         prev = nxt
-    p_axis1 = geo.addPoint(0.0, hf, 0.0)
-    outlet = geo.addLine(p_axis0, p_out)
-    top = geo.addLine(prev, p_axis1)
-    axis = geo.addLine(p_axis1, p_axis0)
-    loop = geo.addCurveLoop([outlet, *wall_curves, top, axis])
-    surf = geo.addPlaneSurface([loop])
-    geo.synchronize()
+    p_axis1 = occ.addPoint(0.0, hf, 0.0)
+    curves += [occ.addLine(prev, p_axis1), occ.addLine(p_axis1, p_axis0)]
+    surf = occ.addPlaneSurface([occ.addCurveLoop(curves)])
+    cuts = [z for z in opts.layer_heights if 1e-9 * hf < z < hf * (1 - 1e-9)]
+    if cuts:
+        rmax = 2.0 * outline.r_max + 1.0
+        lines = [occ.addLine(occ.addPoint(-1.0, z, 0.0), occ.addPoint(rmax, z, 0.0)) for z in cuts]
+        occ.fragment([(2, surf)], [(1, ln) for ln in lines])
+    refine = [occ.addPoint(r, z, 0.0) for r, z, _ in opts.refinement_points(outline)]
+    occ.synchronize()
+    surfaces = [t for _, t in gmsh.model.getEntities(2)]
+    # drop the parts of the cutting lines outside the silo
+    boundary = {abs(t) for _, t in gmsh.model.getBoundary([(2, t) for t in surfaces], combined=True, oriented=False)}
+    tol = 1e-6 * max(hf, outline.r_max)  # OCC pads bounding boxes by ~1e-7
+    groups = {"wall": [], "outlet": [], "top": [], "axis": []}
+    for c in boundary:
+        xmin, zmin, _, xmax, zmax, _ = gmsh.model.getBoundingBox(1, c)
+        if xmax < tol:
+            groups["axis"].append(c)
+        elif zmax < tol and xmax <= outline.outlet_radius + tol:
+            groups["outlet"].append(c)
+        elif zmin > hf - tol:
+            groups["top"].append(c)
+        else:
+            groups["wall"].append(c)
     fields = []
-    for r, z, hk in opts.refinement_points(outline):
-        pt = gmsh.model.geo.addPoint(r, z, 0.0)
-        gmsh.model.geo.synchronize()
+    for pt, (r, z, hk) in zip(refine, opts.refinement_points(outline)):
         d = gmsh.model.mesh.field.add("Distance")
         gmsh.model.mesh.field.setNumbers(d, "PointsList", [pt])
         t = gmsh.model.mesh.field.add("Threshold")
@@ -337,12 +370,11 @@ def _unstructured(outline: Outline, opts: MeshOptions, scale: float = 1.0) -> No
                  "Mesh.MeshSizeFromCurvature": 0, "Mesh.Algorithm": 8, "Mesh.RecombineAll": 1,
                  "Mesh.Smoothing": 10}.items():
         gmsh.option.setNumber(k, v)
-    gmsh.model.mesh.setRecombine(2, surf)
-    gmsh.model.addPhysicalGroup(2, [surf], MATERIAL, "material")
-    gmsh.model.addPhysicalGroup(1, wall_curves, WALL, "wall")
-    gmsh.model.addPhysicalGroup(1, [outlet], OUTLET, "outlet")
-    gmsh.model.addPhysicalGroup(1, [top], TOP, "top")
-    gmsh.model.addPhysicalGroup(1, [axis], AXIS, "axis")
+    for sf in surfaces:
+        gmsh.model.mesh.setRecombine(2, sf)
+    gmsh.model.addPhysicalGroup(2, surfaces, MATERIAL, "material")
+    for name, tag in FACET_TAGS.items():
+        gmsh.model.addPhysicalGroup(1, sorted(groups[name]), tag, name)
 
 
 # ---------------------------------------------------------------------------- dolfinx
@@ -513,7 +545,7 @@ def mesh_scene(scene, comm, *, msh_path: str | Path | None = None) -> SiloMesh:
         if not path.is_absolute() and scene.source is not None:
             path = scene.source.parent / path
         return read_mesh(path, scene.outline, comm)
-    sm = create_mesh(scene.outline, MeshOptions.from_geometry(g), comm, msh_path=msh_path)
+    sm = create_mesh(scene.outline, MeshOptions.from_scene(scene), comm, msh_path=msh_path)
     return sm
 
 

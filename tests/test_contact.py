@@ -1,0 +1,269 @@
+"""Wall contact and wall pressures: the friction laws on a sliding block, Janssen in the
+flat-bottomed silo, hopper filling, the abrupt transition, Δt and rank independence."""
+
+import csv
+import glob
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from silo_dolfinx import analysis, theory
+from silo_dolfinx.contact import COULOMB, VELOCITY, FrictionLaw, WallContact
+from silo_dolfinx.geometry.mesher import mesh_scene
+from silo_dolfinx.geometry.wall import Segment, Wall
+from silo_dolfinx.materials import Elastic
+from silo_dolfinx.scene import load_scene
+from silo_dolfinx.simulation import SiloModel, run, smooth_step
+from silo_dolfinx.solver import ExplicitSolver, Numerics
+
+from conftest import SCENES
+
+
+def read_profile(path):
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+
+# ------------------------------------------------------------------ the sliding block (Figs. 3-13/3-14)
+def sliding_block(comm, law, push_max, t_end=0.4):
+    """A ring block 0.05 × 0.4 m pressed on a vertical wall (radial body force 10 m/s² × mass)
+    and pushed down along it by a body force ramped from t = 0.1 s to push_max × 10 m/s²."""
+    from dolfinx import mesh as dmesh
+
+    msh = dmesh.create_rectangle(comm, [[1.95, 1.0], [2.0, 1.4]], [2, 8], dmesh.CellType.quadrilateral)
+    s = ExplicitSolver(msh, Elastic(1e7, 0.3, 1000.0), Numerics(time_step_scale=0.9))
+    x = msh.geometry.x
+    nodes = np.nonzero(np.abs(x[:, 0] - 2.0) < 1e-12)[0]
+    nodes = nodes[s.node_dof[nodes] < s.n_owned]
+    c = WallContact(Wall([Segment((2.0, -5.0), (2.0, 5.0))]), nodes, s.node_dof[nodes], [law])
+    s.contacts.append(c)
+    press = np.zeros((s.n_nodes, 2))
+    press[:, 0] = 10.0 * s.mass
+    push = np.zeros((s.n_nodes, 2))
+    push[:, 1] = -10.0 * s.mass
+    ramp = lambda t: push_max * max(0.0, (t - 0.1) / (t_end - 0.1))  # noqa: E731
+    s.add_nodal_force(press, lambda t: smooth_step(t / 0.05), "press")
+    s.add_nodal_force(push, ramp, "push")
+    mass = comm.allreduce(float(s.mass[:s.n_owned].sum()), op=MPI.SUM)
+    hist, nodal = [], []
+    while s.t < t_end:
+        s.step()
+        N = comm.allreduce(float(c.normal_force.sum()), op=MPI.SUM)
+        T = comm.allreduce(float(c.shear_force.sum()), op=MPI.SUM)
+        vz = comm.allreduce(float((s.v[:s.n_owned, 1] * s.mass[:s.n_owned]).sum()), op=MPI.SUM) / mass
+        hist.append((s.t, N, T, vz, ramp(s.t - 0.5 * s.dt_prev) * 10.0 * mass))
+        sl = c.in_contact & (np.abs(c.slip_velocity) > 1e-9)
+        nodal += list(zip(np.abs(c.slip_velocity[sl]), np.abs(c.shear_force[sl]) / c.normal_force[sl]))
+    return np.array(hist), np.array(nodal).reshape(-1, 2)
+
+
+def test_coulomb_sticks_below_mu_n_and_saturates_at_it(comm):
+    mu = 0.3
+    h, nodal = sliding_block(comm, FrictionLaw(COULOMB, mu=mu), push_max=1.0)
+    t, N, T, vz, push = h.T
+    N0 = np.median(N[(t > 0.06) & (t < 0.1)])  # the wall force before the push
+    stick = (t > 0.15) & (push < 0.9 * mu * N0)
+    slide = push > 1.1 * mu * N0
+    assert stick.sum() > 100 and slide.sum() > 100
+    # below μN: the block holds (no slip of the block as a whole) and the wall carries the push
+    assert np.abs(vz[stick]).max() < 1e-4
+    assert np.allclose(T[stick], push[stick], rtol=0.01)
+    # beyond: every slipping node carries exactly μN (round-off; the issue's bar is 1 %), no
+    # node ever more, and the block accelerates. (The total T/N dips below μ at moments: the
+    # sliding elastic block chatters, some nodes re-sticking, as the thesis' slip-stick.)
+    nodal = np.concatenate(comm.allgather(nodal))
+    assert len(nodal) > 100 and np.allclose(nodal[:, 1], mu, rtol=1e-12)
+    assert np.all(T <= mu * N * (1 + 1e-12))
+    assert np.mean(T[slide] / N[slide]) > 0.95 * mu
+    assert vz[-1] < -0.3
+
+
+def test_velocity_dependent_law_follows_eq_7_1_along_a_slip_ramp(comm):
+    law = FrictionLaw(VELOCITY, mu_static=0.67, mu_kinetic=0.3, decay=2.0)
+    h, nodal = sliding_block(comm, law, push_max=2.0, t_end=0.5)
+    nodal = np.concatenate(comm.allgather(nodal))
+    slipping = nodal[nodal[:, 0] > 1e-3]
+    assert slipping[:, 0].max() > 0.5  # the ramp reaches fast sliding
+    mu = theory.dynamic_friction(slipping[:, 0], 0.67, 0.3, 2.0)
+    assert np.allclose(slipping[:, 1], mu, rtol=0.01)  # issue bar 1 %; measured: round-off
+    assert np.allclose(slipping[:, 1], mu, rtol=1e-9)
+    # and the block starts to move only when the push exceeds μs N
+    t, N, T, vz, push = h.T
+    N0 = np.median(N[(t > 0.06) & (t < 0.1)])
+    assert np.abs(vz[(t > 0.15) & (push < 0.9 * 0.67 * N0)]).max() < 1e-4
+
+
+# ------------------------------------------------------------------ the flat-bottomed silo (ch. 6)
+def fill_flat_bottom(out, comm, mu):
+    sc = load_scene(SCENES / "flat_bottom_ch6.toml", ["geometry.element_size=0.035", 'discharge.mode="none"',
+                                                      "fill.damping=0.3", "store.duration=1.0",
+                                                      "output.field_interval=100", f"wall.mu={mu}"])
+    summary = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    wall = read_profile(out / "wall_profile_store.csv")
+    snap = dict(np.load(sorted(glob.glob(str(out / "fields" / "snapshot_*.npz")))[-1]))
+    vertical = wall["r"] > 0.35 * (1 - 1e-9)
+    wall = {k: v[vertical] for k, v in wall.items()}
+    return sc, summary, wall, snap
+
+
+def test_janssen_in_the_flat_bottomed_silo(shared_tmp, comm):
+    """Ch. 6 silo filled in 10 layers, wall μ = 0.3 (a wall weaker than the solid, so it
+    slides, as Janssen assumes; see the next test for the thesis' μ = 0.63):
+
+    * p_h(z) within 10 % of Janssen with K measured from the simulation (wall p_h over the
+      cross-section mean σ_zz, averaged over the lower half), for depths from z0 to 0.1 m
+      above the bottom (measured 3.8 %);
+    * the measured K is the Drucker-Prager active ratio (3 − tan β)/(3 + 2 tan β) = 0.523
+      within 10 % (measured 0.56) — not the thesis' 0.38, which this β cannot give;
+    * p_s/p_n = μ on the sliding wall within 2 % (measured 0.2 %);
+    * energy balance error < 1 % through filling."""
+    mu = 0.3
+    sc, summary, wall, snap = fill_flat_bottom(shared_tmp / "janssen", comm, mu)
+    H, R = sc.geometry.fill_height, 0.35
+    gamma = sc.material.density * sc.loads.gravity
+    K = analysis.lateral_pressure_ratio(snap, wall, wall["z"])
+    lower = (wall["z"] > 0.1) & (wall["z"] < H / 2)
+    K_meas = float(np.mean(K[lower]))
+    assert abs(K_meas - theory.drucker_prager_active_k(35.0)) < 0.1 * theory.drucker_prager_active_k(35.0)
+    z0 = theory.janssen_depth(R, mu, K_meas)
+    sel = (wall["z"] >= 0.1) & (wall["z"] <= H - z0)
+    ph, _, _ = theory.janssen(H - wall["z"][sel], R, mu, K_meas, gamma)
+    assert np.all(np.abs(wall["p_n"][sel] / ph - 1) < 0.10)
+    assert np.all(np.abs(wall["p_s"][sel] / wall["p_n"][sel] - mu) < 0.02 * mu)
+    assert summary["energy_balance_error_max"] < 0.01
+
+
+def test_a_wall_rougher_than_the_solid_does_not_slide(shared_tmp, comm):
+    """With the thesis' μ = 0.63 the Drucker-Prager solid (β 35°) yields next to the wall
+    before the wall slides: a DP solid carries at most τ/σ_n = 0.457 on any plane, so the
+    mobilised wall friction settles at that bound (measured 0.437), below μ."""
+    sc, summary, wall, snap = fill_flat_bottom(shared_tmp / "rough", comm, 0.63)
+    sel = (wall["z"] >= 0.3) & (wall["z"] <= 2.5)
+    ratio = wall["p_s"][sel] / wall["p_n"][sel]
+    bound = theory.drucker_prager_wall_shear_limit(35.0)
+    assert np.all(ratio < 0.63 - 0.1)
+    assert abs(np.mean(ratio) - bound) < 0.06 * bound
+
+
+# ------------------------------------------------------------------ the ch. 4 hopper
+def test_hopper_filling_pressures(shared_tmp, comm):
+    """Ch. 4 hopper filled in 10 layers (coarse mesh): p_wn within 15 % of EN 1991-4's hopper
+    filling pressure over the middle 80 % of the wall; wall nodes never penetrate by more than
+    1 % of the element size. (Walker κ = −1 with the thesis' φ 30°, φw 15°, α 22.6° has
+    m = −0.81: pressures rising to the outlet, which neither EN 1991-4 nor this simulation
+    shows; it is drawn by `silo report`, not asserted.)"""
+    sc = load_scene(SCENES / "hopper_ch4.toml", ["geometry.element_size=0.06", 'geometry.mesh="unstructured"',
+                                                 'discharge.mode="none"', "fill.damping=0.3", "store.duration=0.5",
+                                                 "output.field_interval=100"])
+    out = shared_tmp / "hopper"
+    summary = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    w = read_profile(out / "wall_profile_store.csv")
+    g = sc.geometry
+    alpha = np.degrees(np.arctan((g.top_radius - g.outlet_radius) / g.height))
+    en, _ = theory.en1991_hopper(w["z"], sc.wall.mu, alpha, g.outlet_radius, g.height,
+                                 sc.material.density * sc.loads.gravity)
+    mid = (w["z"] > 0.1 * g.height) & (w["z"] < 0.9 * g.height)
+    assert np.all(np.abs(w["p_n"][mid] / en[mid] - 1) < 0.15)
+    assert summary["energy_balance_error_max"] < 0.01
+    # penetration: every wall node on or off the wall, never beyond it by 1 % of h
+    d = sc.outline.wall.project(np.column_stack([w["r"], w["z"]])).distance
+    assert d.min() > -0.01 * g.element_size
+
+
+# ------------------------------------------------------------------ the abrupt transition (ch. 7)
+def transition_peak(comm, out, h):
+    sc = load_scene(SCENES / "bin_hopper_ch7_abrupt.toml", [f"geometry.element_size={h}", "geometry.bin_height=1.0",
+                                                             'discharge.mode="none"', 'fill.method="ramp"',
+                                                             "fill.duration=1.0", "fill.damping=0.7",
+                                                             "store.duration=0.3", "output.field_interval=100",
+                                                             "output.stations=[0.3, 0.687, 1.0]"])
+    run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    w = read_profile(out / "wall_profile_store.csv")
+    zc = sc.outline.transition_points[0][1]
+    near = np.abs(w["z"] - zc) < 0.1
+    return w["p_n"][np.argmin(np.abs(w["z"] - zc))], w["p_n"][near].max()
+
+
+def test_abrupt_transition_peak_is_finite_and_converges(shared_tmp, comm):
+    """Cylinder on a 20° hopper (ch. 7 section, bin shortened to 1 m to keep it quick),
+    abrupt corner, three meshes h = 0.035, 0.025, 0.0175 m: the pressure at the corner and
+    the peak just below it change by less than 10 % between the two finest (measured 2.0 %
+    and 0.9 %)."""
+    res = [transition_peak(comm, shared_tmp / f"corner{k}", h) for k, h in enumerate((0.035, 0.025, 0.0175))]
+    (c1, p1), (c2, p2), (c3, p3) = res
+    assert all(np.isfinite([c1, c2, c3, p1, p2, p3]))
+    assert abs(c3 - c2) / c3 < 0.10 and abs(p3 - p2) / p3 < 0.10
+
+
+def test_nodes_slide_past_the_abrupt_corner(comm):
+    """Free discharge of a short cylinder-on-hopper with a wide outlet: wall nodes starting
+    just above the corner end below it, sliding, in contact, never beyond the wall."""
+    sc = load_scene(SCENES / "bin_hopper_ch7_abrupt.toml", ["geometry.element_size=0.025", "geometry.bin_height=0.6",
+                                                             "geometry.outlet_radius=0.25", 'fill.method="k0"',
+                                                             "wall.mu=0.3", 'discharge.mode="free"',
+                                                             "output.stations=[0.3]"])
+    m = SiloModel(sc, mesh_scene(sc, comm))
+    s = m.solver
+    m.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
+    m.set_geostatic_stress(0.4)
+    x = s.mesh.geometry.x
+    zc = m.outline.transition_points[0][1]
+    c = m.contact
+    above = c.nodes[(x[c.nodes, 1] > zc + 1e-9) & (x[c.nodes, 1] < zc + 0.06)]
+    m.open_outlet()
+    c = m.contact
+    worst = 0.0
+    while s.t < 0.25:
+        s.step()
+        worst = min(worst, float(m.outline.wall.project(x[above]).distance.min(initial=0.0)))
+    k = np.isin(c.nodes, above)
+    n = comm.allreduce(int(above.size), op=MPI.SUM)
+    passed = comm.allreduce(int(np.sum(x[above, 1] < zc)), op=MPI.SUM)
+    assert n >= 1 and passed == n
+    assert np.all(c.in_contact[k]) and np.all(c.slip_velocity[k] < -0.1)  # still sliding down
+    assert comm.allreduce(worst, op=MPI.MIN) > -0.01 * 0.025  # penetration < 1 % of h
+
+
+# ------------------------------------------------------------------ Δt and ranks
+def test_contact_does_not_shrink_the_time_step(comm):
+    """Kinematic contact adds no stiffness: the stable Δt of the filled hopper equals that of
+    the same hopper held by bilateral rollers (the thesis' penalty contact: 34 % at ×10)."""
+    from silo_dolfinx.solver import VelocityConstraint
+
+    sc = load_scene(SCENES / "hopper_ch4.toml", ["geometry.element_size=0.08", 'fill.method="k0"'])
+    dts = []
+    for contact in (True, False):
+        m = SiloModel(sc, mesh_scene(sc, comm))
+        s = m.solver
+        if not contact:
+            wall = m.sm.nodes_on("wall")
+            n = m.outline.wall.project(s.mesh.geometry.x[wall]).normal
+            s.contacts.clear()  # rollers: zero the radial component (the wall is straight)
+            s.constraints.append(VelocityConstraint(s.node_dof[wall], 0))
+            s.constraints.append(VelocityConstraint(m.outlet_dofs_all, 1))
+            assert np.allclose(n, n[0]) if len(n) else True
+        m.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
+        m.set_geostatic_stress(0.4)
+        for _ in range(200):
+            s.step()
+        dts.append(s.dt_crit)
+    assert dts[0] >= 0.9 * dts[1]
+
+
+def test_wall_profiles_are_the_same_on_1_and_2_ranks(shared_tmp, comm):
+    sc = load_scene(SCENES / "hopper_ch4.toml", ["geometry.element_size=0.1", 'discharge.mode="none"',
+                                                 "fill.layers=3", "fill.duration=0.6", "fill.damping=0.3",
+                                                 "store.duration=0.2", "output.field_interval=100"])
+    run(sc, shared_tmp / f"one{comm.rank}", MPI.COMM_SELF, progress_every=1e9)
+    run(sc, shared_tmp / "all", comm, progress_every=1e9)
+    comm.barrier()
+    a = read_profile(shared_tmp / f"one{comm.rank}" / "wall_profile_store.csv")
+    b = read_profile(shared_tmp / "all" / "wall_profile_store.csv")
+    for k in ("s", "r", "z", "p_n", "p_s"):
+        scale = np.abs(a[k]).max()
+        assert np.allclose(a[k], b[k], rtol=1e-8, atol=1e-8 * scale), k

@@ -4,6 +4,7 @@
     silo mesh SCENE -o meshes/NAME.msh [--show]        write the gmsh mesh (and a PNG of it)
     silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
     silo report results/NAME                           figures + report.md from a results folder
+    silo shear --out results/shear [--matching thesis] the ch. 8 simple-shear study (Table 8-1)
     silo schema                                        print the scene reference (Markdown)
 
 Bad input is reported before any meshing or time-stepping, one line per problem naming the
@@ -41,6 +42,11 @@ def _parser() -> argparse.ArgumentParser:
                     help="seconds between progress lines on rank 0 (default 5)")
     sp = sub.add_parser("report", help="figures and report.md from a results folder")
     sp.add_argument("folder", help="results folder written by silo run")
+    sp = sub.add_parser("shear", help="thesis ch. 8 simple shear, Table 8-1, coaxial vs non-coaxial")
+    sp.add_argument("--out", required=True, help="folder for CSV and PNG files")
+    sp.add_argument("--matching", choices=("plane_strain", "thesis"), default="plane_strain",
+                    help="Drucker-Prager β from φ: matched for plane strain (default) or the thesis' choice")
+    sp.add_argument("--gamma", type=float, default=0.1, help="final shear strain (default 0.1)")
     sub.add_parser("schema", help="print the scene file reference (Markdown)")
     return p
 
@@ -61,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "report":
             return _report(args)
+        if args.command == "shear":
+            return _shear(args)
     except SceneError as e:
         _error(str(e))
         return 2
@@ -140,6 +148,22 @@ def _report(args) -> int:
         _error(f"error: {e}")
         return 2
     print(f"{path}: written")
+    return 0
+
+
+def _shear(args) -> int:
+    if _rank() != 0:
+        return 0
+    from silo_dolfinx.materials.driver import run_study
+
+    rows = run_study(args.out, args.matching, args.gamma)
+    print(f"{'case':>4} {'φ':>4} {'ψ':>4} {'E kPa':>8} {'k':>4} {'β_DP':>6} {'σx/σy':>7} {'τ/σy':>7} "
+          f"{'peak Δ':>7} {'angle':>6}")
+    for r in rows:
+        print(f"{r['case']:4d} {r['phi']:4g} {r['psi']:4g} {r['E_kPa']:8g} {r['k']:4g} {r['beta_dp']:6.2f} "
+              f"{r['ultimate_sx_over_sy']:7.4f} {r['ultimate_tau_over_sy']:7.4f} {r['peak_difference']:+7.3f} "
+              f"{r['final_stress_angle']:6.1f}")
+    print(f"CSV and PNG files in {args.out}/")
     return 0
 
 

@@ -7,6 +7,7 @@ own module and is compiled with numba.
 from silo_dolfinx.materials.base import Material
 from silo_dolfinx.materials.drucker_prager import DruckerPrager
 from silo_dolfinx.materials.elastic import Elastic
+from silo_dolfinx.materials.non_coaxial import NonCoaxial
 
 
 def make_material(m) -> Material:
@@ -16,7 +17,10 @@ def make_material(m) -> Material:
     if m["model"] == "drucker_prager":
         return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
                              m["dilation_angle"], m["cohesion"])
-    raise ValueError(f"[material] model = {m['model']!r} is not available in this version")
+    if m["model"] == "non_coaxial":
+        return NonCoaxial(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
+                          m["dilation_angle"], m["cohesion"], m["noncoaxial_modulus"])
+    raise ValueError(f"[material] model = {m['model']!r}: unknown")  # the scene schema prevents this
 
 
-__all__ = ["DruckerPrager", "Elastic", "Material", "make_material"]
+__all__ = ["DruckerPrager", "Elastic", "Material", "NonCoaxial", "make_material"]

@@ -34,9 +34,11 @@ class DruckerPrager(Material):
         self.tan_beta = math.tan(math.radians(friction_angle))
         self.tan_psi = math.tan(math.radians(dilation_angle))
 
+    noncoaxial = 0.0  # 4G²/(H_nc + 2G): zero for the coaxial law (see non_coaxial.py)
+
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
         return float(_update(sig, deps, state_old["eqps"], self.K, self.G, self.tan_beta, self.tan_psi,
-                             self.cohesion, sig_new, state_new["eqps"], dV))
+                             self.cohesion, self.noncoaxial, sig_new, state_new["eqps"], dV))
 
     def yield_function(self, sig: np.ndarray) -> np.ndarray:
         """F(σ) for an (n, 4) array (≤ 0 admissible)."""
@@ -75,9 +77,13 @@ def return_map(s_trial, K, G, tanb, tanpsi, d, out):
 
 
 @numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
-def _update(sig, deps, eqps, K, G, tanb, tanpsi, d, sig_new, eqps_new, dV):
+def _update(sig, deps, eqps, K, G, tanb, tanpsi, d, c_nc, sig_new, eqps_new, dV):
     """The return map of :func:`return_map` over all points, written out in scalars (the
-    hot loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p."""
+    hot loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p.
+
+    c_nc = 4G²/(H_nc + 2G) > 0 adds the yield-vertex non-coaxial plastic strain (eq. 8-11)
+    at points that load plastically: the trial deviator loses c_nc Δe_t, Δe_t the part of
+    the deviatoric strain increment tangential to the current deviator s (s : Δe_t = 0)."""
     diss = 0.0
     lam = K - 2.0 * G / 3.0
     two_g = 2.0 * G
@@ -99,6 +105,34 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi, d, sig_new, eqps_new, dV):
             sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = t0, t1, t2, t3
             eqps_new[i] = eqps[i]
             continue
+        # elastic trial kept for the plastic strain; the non-coaxial part modifies the trial
+        e0t, e1t, e2t, e3t = t0, t1, t2, t3
+        if c_nc > 0.0:
+            sm = (sig[i, 0] + sig[i, 1] + sig[i, 2]) * (1.0 / 3.0)
+            s0, s1, s2, s3 = sig[i, 0] - sm, sig[i, 1] - sm, sig[i, 2] - sm, sig[i, 3]
+            ss = s0 * s0 + s1 * s1 + s2 * s2 + 2.0 * s3 * s3
+            if ss > 0.0:
+                em = tr * (1.0 / 3.0)
+                de0, de1, de2, de3 = e0 - em, e1 - em, e2 - em, 0.5 * e3  # tensor deviatoric strain
+                proj = (s0 * de0 + s1 * de1 + s2 * de2 + 2.0 * s3 * de3) / ss
+                t0 -= c_nc * (de0 - proj * s0)
+                t1 -= c_nc * (de1 - proj * s1)
+                t2 -= c_nc * (de2 - proj * s2)
+                t3 -= c_nc * (de3 - proj * s3)
+                m = (t0 + t1 + t2) * (1.0 / 3.0)
+                d0, d1, d2 = t0 - m, t1 - m, t2 - m
+                q = math.sqrt(1.5 * (d0 * d0 + d1 * d1 + d2 * d2) + 3.0 * t3 * t3)
+                p = -m
+                f = q - p * tanb - d
+                if f <= 0.0:
+                    s0n, s1n, s2n, s3n = t0, t1, t2, t3
+                    sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0n, s1n, s2n, s3n
+                    r0, r1, r2, r3 = e0t - s0n, e1t - s1n, e2t - s2n, e3t - s3n
+                    rt = r0 + r1 + r2
+                    diss += dV[i] * (s0n * (r0 - c * rt) + s1n * (r1 - c * rt) + s2n * (r2 - c * rt)) / two_g \
+                        + dV[i] * s3n * r3 / G
+                    eqps_new[i] = eqps[i]
+                    continue
         dlam = f / denom
         if 3.0 * G * dlam <= q:  # return to the cone
             qn = q - 3.0 * G * dlam
@@ -112,8 +146,9 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi, d, sig_new, eqps_new, dV):
             s0, s1, s2, s3 = -pa, -pa, -pa, 0.0
             apex = True
         sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0, s1, s2, s3
-        # plastic strain Δε_p = C⁻¹ (σ_trial − σ_new) and its dissipation σ_new : Δε_p
-        r0, r1, r2, r3 = t0 - s0, t1 - s1, t2 - s2, t3 - s3
+        # plastic strain Δε_p = C⁻¹ (σ_trial,elastic − σ_new) (coaxial + non-coaxial) and its
+        # dissipation σ_new : Δε_p
+        r0, r1, r2, r3 = e0t - s0, e1t - s1, e2t - s2, e3t - s3
         rt = r0 + r1 + r2
         p0 = (r0 - c * rt) / two_g
         p1 = (r1 - c * rt) / two_g

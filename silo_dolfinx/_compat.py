@@ -13,3 +13,15 @@ def geometry_dofmap(mesh) -> np.ndarray:
         d = g.dofmaps
         return d(0) if callable(d) else d[0]
     return g.dofmap  # pragma: no cover - older releases
+
+
+def facet_ghost_partitioner():
+    """A cell partitioner that adds one layer of ghost cells across partition facets (the
+    ALE remap reads its neighbours' state there). DOLFINx 0.11 takes the maximum facet-to-
+    cell links as a second argument; 0.10 does not."""
+    from dolfinx import mesh as dmesh
+
+    try:
+        return dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
+    except TypeError:  # pragma: no cover - DOLFINx 0.10
+        return dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet)

@@ -75,6 +75,9 @@ def main(argv: list[str] | None = None) -> int:
     except _user_errors() as e:
         _error(f"error: {e}")
         return 2
+    except Exception:
+        _abort_other_ranks()
+        raise
     return 1  # pragma: no cover - argparse guarantees a command
 
 
@@ -83,6 +86,24 @@ def _user_errors():
     from silo_dolfinx.solver import InstabilityError
 
     return (MeshingError, InstabilityError)
+
+
+def _abort_other_ranks() -> None:
+    """An unexpected error on one rank would leave the others waiting in a collective
+    forever: print it with its rank and abort the whole job (the CSVs written so far stay
+    readable; summary.json keeps status "running")."""
+    try:
+        from mpi4py import MPI
+    except ImportError:  # pragma: no cover
+        return
+    comm = MPI.COMM_WORLD
+    if comm.size > 1:
+        import traceback
+
+        print(f"[rank {comm.rank}] unexpected error; aborting all ranks:", file=sys.stderr)
+        traceback.print_exc()
+        sys.stderr.flush()
+        comm.Abort(1)
 
 
 def _rank() -> int:

@@ -107,15 +107,22 @@ class AxisymmetricForms:
         (key,) = fem.pack_coefficients(form).keys()
         return form, key
 
-    def lumped_mass(self, density_q: np.ndarray, cells: np.ndarray) -> np.ndarray:
-        """Row-sum lumped mass per node (owned + ghost entries, ghosts accumulated).
-
-        ``density_q`` is the density at the quadrature points, shape (len(cells), nq).
-        Returns the array of the blocked vector (both components of a node carry its mass).
-        """
+    def mass_form(self, cells: np.ndarray) -> tuple[fem.Form, tuple]:
+        """Form for the row-sum lumped mass ∫ ρ N_a 2π r dx over ``cells`` (both components of
+        a node carry its mass), with ρ at the quadrature points supplied pre-packed."""
         form = fem.form(ufl.inner(self._w, ufl.as_vector([1.0, 1.0])) * self._density * TWO_PI * self.r
                         * self._dx(cells))
         (key,) = fem.pack_coefficients(form).keys()
+        return form, key
+
+    def lumped_mass(self, density_q: np.ndarray, cells: np.ndarray, form=None) -> np.ndarray:
+        """Row-sum lumped mass per node (owned + ghost entries, ghosts accumulated).
+
+        ``density_q`` is the density at the quadrature points, shape (len(cells), nq);
+        ``form``, if given, is :meth:`mass_form` of ``cells`` (built once by the caller).
+        Returns the array of the blocked vector (both components of a node carry its mass).
+        """
+        form, key = self.mass_form(cells) if form is None else form
         b = fem.assemble_vector(form, coeffs={key: np.ascontiguousarray(density_q, dtype=np.float64)})
         b.scatter_reverse(_add())
         b.scatter_forward()

@@ -25,6 +25,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 
 class CsvSeries:
     """A CSV file written row by row (rank 0 only), flushed after each row."""
@@ -52,8 +54,10 @@ class CsvSeries:
 
 
 def _fmt(x):
-    if isinstance(x, float):
-        return repr(x) if math.isfinite(x) else ""
+    if isinstance(x, (float, np.floating)):  # np.float64's repr is "np.float64(...)": not CSV
+        return repr(float(x)) if math.isfinite(x) else ""
+    if isinstance(x, np.integer):
+        return int(x)
     return x
 
 

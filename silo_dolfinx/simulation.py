@@ -68,6 +68,7 @@ class SiloModel:
         self.scene = scene
         self.sm = sm
         self.outline = sm.outline
+        self.ale = None  # set by the discharge stage when [ale] is enabled
         self.material = make_material(scene.material)
         self.solver = ExplicitSolver(sm.mesh, self.material, Numerics.from_scene(scene),
                                      gravity=scene.loads.gravity)
@@ -180,6 +181,16 @@ class SiloModel:
         s.sig[:, 3] = 0.0
         s.refresh_force()
 
+    def after_remap(self) -> None:
+        """The mesh and the mass changed (ALE remap): gravity on the new mass, surcharge on
+        the moved top."""
+        self.solver.replace_gravity()
+        if self._surcharge_vec is not None:
+            f = self._surcharge_force(self.scene.loads.top_surcharge)
+            for g in self.solver.loads:
+                if g.kind == "surcharge":
+                    g.force[:] = f
+
     # ------------------------------------------------------------------ wall output
     def wall_state(self) -> dict[str, np.ndarray] | None:
         """Per wall node (gathered on rank 0, sorted by arclength): s, r, z, p_n, p_s, slip."""
@@ -210,8 +221,8 @@ class SiloModel:
 class Recorder:
     """Time histories, profiles and fields of a running model into a :class:`Results` folder."""
 
-    ENERGY_COLUMNS = ["t", "stage", "kinetic", "elastic", "plastic", "viscous", "damping", "gravity_work",
-                      "external_work", "contact_work", "balance", "relative_error"]
+    ENERGY_COLUMNS = ["t", "stage", "kinetic", "elastic", "plastic", "viscous", "damping", "remap", "outflow",
+                      "gravity_work", "external_work", "contact_work", "balance", "relative_error"]
     WALL_COLUMNS = ["t", "station", "s", "r", "z", "p_n", "p_s", "slip_velocity"]
     PROFILE_COLUMNS = ["s", "r", "z", "p_n", "p_s", "slip_velocity", "in_contact"]
 
@@ -232,6 +243,7 @@ class Recorder:
         self._last_t = None
         self._last_fields = None
         self._fields = None
+        self.monitor = None  # the discharge stage's outlet and mesh-quality monitor
 
     def maybe(self, stage: str) -> None:
         t = self.model.solver.t
@@ -253,8 +265,10 @@ class Recorder:
         e = s.global_energy()
         err = e.relative_error(s.energy_scale)
         self.max_abs_balance = max(self.max_abs_balance, abs(e.balance))
-        self.energy_csv.write([s.t, stage, e.kinetic, e.elastic, e.plastic, e.viscous, e.damping, e.gravity,
-                               e.external, e.contact, e.balance, err])
+        if self.monitor is not None:
+            self.monitor.sample()
+        self.energy_csv.write([s.t, stage, e.kinetic, e.elastic, e.plastic, e.viscous, e.damping, e.remap,
+                               e.outflow, e.gravity, e.external, e.contact, e.balance, err])
         w = self.model.wall_state()
         if w is not None and w["s"].size:
             rows = []
@@ -347,12 +361,16 @@ class FieldWriter:
         corners = x[s._active_nodes][:, :, :2]
         owned_nodes = np.nonzero(s.node_dof < s.n_owned)[0]
         parts = comm.gather((corners, cell_values, x[owned_nodes, :2], s.v[s.node_dof[owned_nodes]]), root=0)
+        ale = self.model.ale
+        tracers = ale.tracers.gather() if ale is not None and ale.tracers is not None else None
         if parts is None:
             return
         data = {"t": t, "corners": np.concatenate([p[0] for p in parts]),
                 "node_xy": np.concatenate([p[2] for p in parts]), "node_velocity": np.concatenate([p[3] for p in parts])}
         for name in cell_values:
             data[f"cell_{name}"] = np.concatenate([p[1][name] for p in parts])
+        if tracers is not None:
+            data.update({f"tracer_{k}": v for k, v in tracers.items()})
         np.savez_compressed(self.folder / f"snapshot_{self.count:04d}.npz", **data)
         self.count += 1
 
@@ -385,8 +403,8 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> di
         s = model.solver
         results.update(cells=q["cells"], mesh_quality=q, material=model.material.name,
                        stable_dt_initial=s.dt_crit, time_step_scale=s.numerics.time_step_scale,
-                       ale="not applied: this version runs the Lagrangian phase only" if scene.ale.enabled else
-                       "off (Lagrangian)")
+                       ale=("on in the discharge" if scene.ale.enabled and scene.discharge.mode != "none" else
+                            "off (Lagrangian)"))
         recorder = Recorder(model, results)
         progress = Progress(comm, total_time(scene), every=progress_every)
         stages = _fill(model, recorder, progress)
@@ -414,13 +432,17 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> di
 
 
 def _advance(model: SiloModel, t_end: float, stage: str, recorder: Recorder, progress, stop=None,
-             label: str | None = None) -> None:
+             label: str | None = None, ale=None) -> None:
+    """The time loop (thesis ch. 3): Lagrangian step (predict, internal force, contact,
+    update), then every N steps smoothing + remap."""
     s = model.solver
     while s.t < t_end * (1 - 1e-12) - 1e-15:
         remaining = t_end - s.t
         if s.dt > remaining:
             s.dt = remaining
         s.step()
+        if ale is not None and ale.due():
+            ale.apply()
         recorder.maybe(stage)
         progress(label or stage, s.t, s.steps, s.dt)
         if stop is not None and recorder.next_history - recorder.dt_history <= s.t and stop():
@@ -479,6 +501,126 @@ def _discharge(model: SiloModel, recorder: Recorder, progress) -> dict:
     s.numerics.damping = 0.0
     t0, steps0, wall0 = s.t, s.steps, time.time()
     model.open_outlet()
-    _advance(model, t0 + sc.discharge.duration, "discharge", recorder, progress)
+    a = sc.ale
+    ale = None
+    if a.enabled:
+        from silo_dolfinx.ale import ALE
+
+        ale = ALE(model, frequency=a.frequency, sweeps=a.sweeps, laplacian_weight=a.laplacian_weight,
+                  mid_area_weight=a.mid_area_weight, remap_order=a.remap_order, predictor=a.predictor,
+                  objective=a.smoothing_objective, tracers=(a.tracer_rows, a.tracer_columns))
+    model.ale = ale
+    monitor = DischargeMonitor(model, recorder.results, ale)
+    recorder.monitor = monitor
+    _advance(model, t0 + sc.discharge.duration, "discharge", recorder, progress, ale=ale)
     recorder.stage_end("discharge")
-    return dict(_stage_record("discharge", t0, model, steps0, wall0), mode=sc.discharge.mode)
+    record = dict(_stage_record("discharge", t0, model, steps0, wall0), mode=sc.discharge.mode)
+    record.update(monitor.summary())
+    return record
+
+
+class DischargeMonitor:
+    """Outlet flow and mesh quality during the discharge: ``outlet.csv`` and ``mesh_quality.csv``.
+
+    outlet.csv: t, discharged_mass (kg: counted by the remap as it leaves through the
+    Eulerian outlet; without ALE, the mass of cells below the outlet plane), mass_in_silo,
+    mass_flow_rate (kg/s, from the discharged mass between samples), mean_outlet_velocity
+    (m/s, downward, area-weighted over the outlet), mass_balance_error (relative).
+    mesh_quality.csv: t, top_drop (m, the free surface on the axis), min_scaled_jacobian,
+    max_aspect_ratio (the Fig. 3-18 quantities)."""
+
+    OUTLET_COLUMNS = ["t", "discharged_mass", "mass_in_silo", "mass_flow_rate", "mean_outlet_velocity",
+                      "mass_balance_error"]
+    MESH_COLUMNS = ["t", "top_drop", "min_scaled_jacobian", "max_aspect_ratio"]
+
+    def __init__(self, model: SiloModel, results: Results, ale=None):
+        from dolfinx import la
+
+        from silo_dolfinx._compat import geometry_dofmap
+        from silo_dolfinx.ale.remap import _orientation
+        from silo_dolfinx.geometry.quality import CYCLE
+
+        self.model = model
+        self.ale = ale
+        s = model.solver
+        self.outlet_csv = results.series("outlet.csv", self.OUTLET_COLUMNS)
+        self.mesh_csv = results.series("mesh_quality.csv", self.MESH_COLUMNS)
+        self._form = s.forms.tributary_area_form(model.sm.facet_tags, FACET_TAGS["outlet"])
+        self._area = la.vector(s.V.dofmap.index_map, 2)
+        mesh = model.sm.mesh
+        self._cn_t = np.ascontiguousarray(geometry_dofmap(mesh)[: s.n_cells_owned].astype(np.int64))
+        self._cn = np.ascontiguousarray(self._cn_t[:, CYCLE])
+        self._orient = _orientation(mesh.geometry.x, self._cn)
+        top = model.sm.nodes_on("top")
+        axis = model.sm.nodes_on("axis")
+        self._axis_top = np.intersect1d(top, axis)
+        self._z_top0 = self._axis_top_z()
+        self.t0 = s.t
+        self.mass0 = self._mass_in_silo()[0]
+        self._last = (s.t, 0.0)
+        self.worst_balance = 0.0
+        self.aspect0 = self._quality()[1]
+        self.flow = []  # (t, rate) samples
+
+    def _axis_top_z(self) -> float:
+        x = self.model.sm.mesh.geometry.x
+        z = float(x[self._axis_top, 1].max()) if self._axis_top.size else -np.inf
+        return self.model.sm.comm.allreduce(z, op=MPI.MAX)
+
+    def _mass_in_silo(self) -> tuple[float, float]:
+        """(mass in the silo, mass below the outlet plane) over all ranks (kg)."""
+        from silo_dolfinx.ale.remap import qp_volumes
+
+        s = self.model.solver
+        x = np.ascontiguousarray(self.model.sm.mesh.geometry.x[:, :2])
+        dV = np.zeros(s.n_cells_owned * s.nq)
+        qp_volumes(x, self._cn_t, np.ascontiguousarray(s.forms.points, dtype=float),
+                   np.ascontiguousarray(s.forms.weights, dtype=float), s.n_cells_owned, dV)
+        m = (s.rho * dV).reshape(-1, s.nq).sum(axis=1)
+        below = x[self._cn_t].mean(axis=1)[:, 1] < 0.0
+        tot = self.model.sm.comm.allreduce(np.array([m[~below].sum(), m[below].sum()]), op=MPI.SUM)
+        return float(tot[0]), float(tot[1])
+
+    def _quality(self) -> tuple[float, float]:
+        from silo_dolfinx.geometry.quality import worst_cells
+
+        x = self.model.sm.mesh.geometry.x
+        s_, a = worst_cells(x, self._cn, self._orient, self._cn.shape[0])
+        c = self.model.sm.comm
+        return c.allreduce(s_, op=MPI.MIN), c.allreduce(a, op=MPI.MAX)
+
+    def sample(self) -> None:
+        from dolfinx import fem, la
+
+        s = self.model.solver
+        inside, below = self._mass_in_silo()
+        out = self.ale.totals()["discharged_mass"] if self.ale is not None else below
+        t_prev, out_prev = self._last
+        rate = (out - out_prev) / (s.t - t_prev) if s.t > t_prev else 0.0
+        self._last = (s.t, out)
+        self._area.array[:] = 0.0
+        fem.assemble_vector(self._area.array, self._form)
+        self._area.scatter_reverse(la.InsertMode.add)
+        w = self._area.array.reshape(-1, 2)[: s.n_owned, 0]
+        vz = s.v[: s.n_owned, 1]
+        num = self.model.sm.comm.allreduce(np.array([float(np.dot(w, -vz)), float(w.sum())]), op=MPI.SUM)
+        v_mean = num[0] / num[1] if num[1] > 0 else 0.0
+        err = (self.mass0 - inside - (out if self.ale is not None else 0.0)) / self.mass0
+        self.worst_balance = max(self.worst_balance, abs(err))
+        self.outlet_csv.write([s.t, out, inside, rate, v_mean, err])
+        smin, amax = self._quality()
+        self.mesh_csv.write([s.t, self._z_top0 - self._axis_top_z(), smin, amax])
+        self.flow.append((s.t, rate, v_mean, amax))
+
+    def summary(self) -> dict:
+        d = {"mass_at_opening": self.mass0, "mass_balance_error_max": self.worst_balance}
+        if self.flow:
+            f = np.array(self.flow)
+            t = f[:, 0] - self.t0
+            late = t >= 0.5 * t[-1]  # the second half: past the start-up transient
+            d.update(mean_mass_flow_rate_second_half=float(f[late, 1].mean()),
+                     mean_outlet_velocity_second_half=float(f[late, 2].mean()),
+                     initial_max_aspect_ratio=self.aspect0, final_max_aspect_ratio=float(f[-1, 3]))
+        if self.ale is not None:
+            d["ale"] = self.ale.totals()
+        return d

@@ -23,7 +23,9 @@ Energy bookkeeping (J, full 360°), all centred at t_{n+½}: kinetic ½ Σ M |v^
 elastic energy from the stress (mean of t_n and t_{n+1}); plastic dissipation from the
 return map; bulk-viscous and damping dissipation; external work (gravity, surcharge,
 prescribed velocities, contact) as W += F^n · ½(Δx^{n−½} + Δx^{n+½}). The balance
-B = KE + E_el + D_p + D_visc + D_damp − W_ext should stay near its initial value.
+B = KE + E_el + D_p + D_visc + D_damp − W_ext should stay near its initial value. An ALE
+remap moves energy out of the mesh (what the discharged material carries: ``outflow``) and
+dissipates some (upwinding: ``remap``); both are booked so that B stays meaningful.
 """
 
 from __future__ import annotations
@@ -83,10 +85,13 @@ class Energy:
     gravity: float = 0.0
     contact: float = 0.0
     internal_work: float = 0.0  # stress power integrated (= elastic + plastic for small strains)
+    remap: float = 0.0  # kinetic + elastic energy lost by ALE remaps (numerical dissipation)
+    outflow: float = 0.0  # kinetic + elastic energy carried out through the outlet
 
     @property
     def balance(self) -> float:
-        return self.kinetic + self.elastic + self.plastic + self.viscous + self.damping - self.external
+        return (self.kinetic + self.elastic + self.plastic + self.viscous + self.damping + self.remap
+                + self.outflow - self.external)
 
     @property
     def scale(self) -> float:
@@ -218,6 +223,7 @@ class ExplicitSolver:
             self.rho.reshape(-1, self.nq)[pos] = saved[2][kept]
         self._active = cells
         self.force_form, self._force_key = self.forms.internal_force(cells)
+        self._mass_form = self.forms.mass_form(cells)
         self._coeffs = {self._force_key: self.packed}
         self._update_geometry_cache()
         self.rebuild_mass()
@@ -229,7 +235,7 @@ class ExplicitSolver:
 
     def rebuild_mass(self) -> None:
         """Lumped mass from the current densities (after activation or a remap)."""
-        m = self.forms.lumped_mass(self.rho.reshape(-1, self.nq), self._active).reshape(-1, 2)[:, 0]
+        m = self.forms.lumped_mass(self.rho.reshape(-1, self.nq), self._active, self._mass_form).reshape(-1, 2)[:, 0]
         self.mass[:] = m
         self.m_inertial[:] = m * self.numerics.mass_scaling
         with np.errstate(divide="ignore"):
@@ -401,13 +407,10 @@ class ExplicitSolver:
         ½ M |v^{n+½}|²; the elastic energy and the dissipations, known at t_n and t_{n+1}, are
         taken at their mean. Every term is then centred at the same instant (second order)."""
         e = self.energy
-        n = self.n_owned
-        ke = 0.5 * float(np.sum(self.m_inertial[:n, None] * self.v[:n] ** 2))
-        el = self.material.elastic_energy(self.sig, self.dV)
-        if self.steps > 0:  # the previous stress is still in the double buffer
-            el = 0.5 * (el + self.material.elastic_energy(self._sig_new, self.dV))
+        ke, el = self._kinetic_elastic_local()
         dp, dv, di = getattr(self, "_last_increment", (0.0, 0.0, 0.0))
-        names = ["plastic", "viscous", "damping", "external", "gravity", "contact", "internal_work"]
+        names = ["plastic", "viscous", "damping", "external", "gravity", "contact", "internal_work", "remap",
+                 "outflow"]
         local = np.array([ke, el] + [getattr(e, k) for k in names])
         local[2] -= 0.5 * dp
         local[3] -= 0.5 * dv
@@ -416,6 +419,47 @@ class ExplicitSolver:
         g = Energy(*map(float, tot))
         self.energy_scale = max(getattr(self, "energy_scale", 0.0), g.scale)
         return g
+
+    def _kinetic_elastic_local(self) -> tuple[float, float]:
+        n = self.n_owned
+        ke = 0.5 * float(np.sum(self.m_inertial[:n, None] * self.v[:n] ** 2))
+        el = self.material.elastic_energy(self.sig, self.dV)
+        if self.steps > 0:  # the previous stress is still in the double buffer
+            el = 0.5 * (el + self.material.elastic_energy(self._sig_new, self.dV))
+        return ke, el
+
+    def mechanical_energy_local(self) -> float:
+        """This rank's kinetic + elastic energy as :meth:`global_energy` counts them (J)."""
+        return sum(self._kinetic_elastic_local())
+
+    def after_remap(self) -> None:
+        """The mesh moved and ``sig``, ``state``, ``rho`` and ``v`` were remapped onto it:
+        rebuild what depends on them (volumes, lumped mass, stable Δt, internal force)."""
+        num = self.numerics
+        for c in self.constraints:
+            if c.value is None:
+                self.v[c.dofs, c.comp] = 0.0
+        self._vvec.scatter_forward()
+        self.forms.kinematics.eval(self.mesh, self._active, self.kin)
+        kernels.kinematics(self.kin, self.forms.weights, 0.0, num.bbar, self.deps, self.spin, self.dvol, self.dV,
+                           self.trd_cell)
+        kernels.cell_average(self.rho, self.dV, self.nq, self.rho_cell)
+        self._update_geometry_cache()
+        self.dt = num.time_step_scale * self.dt_crit
+        self.rebuild_mass()
+        kernels.closure(self.sig, self.sig, self.deps, self.dV, self.trd_cell, self.rho, self.L_cell, self.c_cell,
+                        *num.bulk_viscosity, num.bbar, self.nq, self.packed)
+        self._assemble_internal_force(self._fvec)
+        np.copyto(self._sig_new, self.sig)  # the "previous" stress of the energy average
+        np.multiply(self.v, self.dt_prev, out=self._dx_prev)
+
+    def replace_gravity(self) -> None:
+        """One full-gravity load on the current lumped mass in place of all gravity loads
+        (after a remap changed the mass; only once every gravity ramp has ended)."""
+        if any(g.kind == "gravity" and g.amplitude(self.t) != 1.0 for g in self.loads):
+            raise RuntimeError("replace_gravity during a gravity ramp")
+        self.loads = [g for g in self.loads if g.kind != "gravity"]
+        self.add_gravity()
 
     def kinetic_energy_now(self) -> float:
         n = self.n_owned

@@ -456,7 +456,9 @@ def create_mesh(outline: Outline, opts: MeshOptions, comm, *, msh_path: str | Pa
         if comm.rank == rank and not started:
             gmsh.finalize()
         raise error
-    data = dgmsh.model_to_mesh(gmsh.model, comm, rank, gdim=2)
+    from silo_dolfinx._compat import facet_ghost_partitioner
+
+    data = dgmsh.model_to_mesh(gmsh.model, comm, rank, gdim=2, partitioner=facet_ghost_partitioner())
     if comm.rank == rank:
         gmsh.model.remove()
         if not started:
@@ -474,7 +476,9 @@ def read_mesh(path: str | Path, outline: Outline, comm, *, rank: int = 0) -> Sil
     if not path.is_file():
         raise MeshingError(f"[geometry] mesh_file = {str(path)!r}: file not found. Fix: check the path, "
                            "or remove mesh_file to mesh the geometry with gmsh.")
-    data = dgmsh.read_from_msh(str(path), comm, rank, gdim=2)
+    from silo_dolfinx._compat import facet_ghost_partitioner
+
+    data = dgmsh.read_from_msh(str(path), comm, rank, gdim=2, partitioner=facet_ghost_partitioner())
     m = data.mesh
     if m.topology.cell_type != dmesh.CellType.quadrilateral:
         raise MeshingError(f"[geometry] mesh_file = {path.name!r}: cells are {m.topology.cell_type.name}, "

@@ -7,6 +7,8 @@ would invert a cell. DOLFINx orders a quadrilateral's vertices as a tensor produ
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -81,3 +83,30 @@ def quality_report(mesh) -> dict:
             comm.allreduce(float(scaled.min(initial=1.0)), op=MPI.MIN), -1, 1)))),
         "orientation": "counter-clockwise" if sign > 0 else "clockwise",
     }
+
+
+@numba.njit(cache=True)
+def worst_cells(x: np.ndarray, cycle_nodes: np.ndarray, orient: np.ndarray, n: int) -> tuple[float, float]:
+    """(min scaled Jacobian, max aspect ratio) over the first ``n`` cells, straight from node
+    positions ``x`` and boundary-cycle nodes (no arrays allocated: the ALE smoother calls
+    this at every smoothing). ``orient`` is each cell's sign of area (±1), so a cell that
+    turns inside out has a negative scaled Jacobian."""
+    smin = 1e300
+    amax = 0.0
+    for c in range(n):
+        lo = 1e300
+        hi = 0.0
+        for k in range(4):
+            a = cycle_nodes[c, (k + 3) % 4]
+            b = cycle_nodes[c, k]
+            d = cycle_nodes[c, (k + 1) % 4]
+            e1r, e1z = x[d, 0] - x[b, 0], x[d, 1] - x[b, 1]
+            e0r, e0z = x[a, 0] - x[b, 0], x[a, 1] - x[b, 1]
+            l1 = math.sqrt(e1r * e1r + e1z * e1z)
+            l0 = math.sqrt(e0r * e0r + e0z * e0z)
+            j = orient[c] * (e1r * e0z - e1z * e0r)
+            smin = min(smin, j / max(l0 * l1, 1e-300))
+            lo = min(lo, l1)
+            hi = max(hi, l1)
+        amax = max(amax, hi / lo if lo > 0.0 else np.inf)
+    return smin, amax

@@ -135,16 +135,24 @@ class Wall:
         """Piece end points, outlet edge first, shape (n_pieces + 1, 2)."""
         return np.array([self.pieces[0].start] + [p.end for p in self.pieces])
 
-    def corners(self, angle_tol_deg: float = 1.0) -> np.ndarray:
-        """Interior vertices where the tangent turns abruptly (more than ``angle_tol_deg``)."""
+    def _corner_pieces(self, angle_tol_deg: float) -> list[int]:
+        """Indices i where the tangent turns abruptly between piece i and piece i + 1."""
         out = []
         for i in range(len(self.pieces) - 1):
             t0 = _unit_tangent(self.pieces[i], "end")
             t1 = _unit_tangent(self.pieces[i + 1], "start")
             turn = math.degrees(math.atan2(t0[0] * t1[1] - t0[1] * t1[0], t0[0] * t1[0] + t0[1] * t1[1]))
             if abs(turn) > angle_tol_deg:
-                out.append(self.pieces[i].end)
-        return np.array(out).reshape(-1, 2)
+                out.append(i)
+        return out
+
+    def corners(self, angle_tol_deg: float = 1.0) -> np.ndarray:
+        """Interior vertices where the tangent turns abruptly (more than ``angle_tol_deg``)."""
+        return np.array([self.pieces[i].end for i in self._corner_pieces(angle_tol_deg)]).reshape(-1, 2)
+
+    def corner_s(self, angle_tol_deg: float = 1.0) -> np.ndarray:
+        """Arclengths of the corners (see :meth:`corners`)."""
+        return np.array([self._s0[i + 1] for i in self._corner_pieces(angle_tol_deg)], float)
 
     def project(self, points: np.ndarray) -> Projection:
         """Closest-point projection of ``points`` (shape (n, 2) or (n, 3); r, z first)."""
@@ -161,17 +169,15 @@ class Wall:
 
     def point_at(self, s: np.ndarray | float) -> np.ndarray:
         """Wall point(s) at arclength ``s`` from the outlet edge (clipped to the wall)."""
-        s = np.atleast_1d(np.asarray(s, dtype=float))
-        out = np.empty((s.size, 2))
-        for j, sj in enumerate(np.clip(s, 0.0, self.length)):
-            i = int(np.searchsorted(self._s0, sj, side="right") - 1)
-            p, u = self.pieces[i], sj - self._s0[i]
-            if isinstance(p, Segment):
-                f = u / p.length if p.length > 0 else 0.0
-                out[j] = (p.start[0] + f * (p.end[0] - p.start[0]), p.start[1] + f * (p.end[1] - p.start[1]))
-            else:
-                out[j] = p.point(p.theta0 + math.copysign(u / p.radius, p.sweep))
-        return out
+        return self.point_normal_at(s)[0]
+
+    def point_normal_at(self, s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Wall points and unit normals (into the wall) at arclengths ``s`` (clipped)."""
+        s = np.ascontiguousarray(np.atleast_1d(np.asarray(s, dtype=float)))
+        pts = np.empty((s.size, 2))
+        nrm = np.empty((s.size, 2))
+        _point_at(np.clip(s, 0.0, self.length), self._kind, self._geo, self._s0, pts, nrm)
+        return pts, nrm
 
     def s_at_height(self, z: np.ndarray | float) -> np.ndarray:
         """Arclength of the wall point at height ``z``.
@@ -220,6 +226,32 @@ def _unit_tangent(p: Segment | Arc, where: str) -> tuple[float, float]:
     th = p.theta0 if where == "start" else p.theta0 + p.sweep
     sgn = 1.0 if p.sweep > 0 else -1.0
     return (-sgn * math.sin(th), sgn * math.cos(th))
+
+
+@numba.njit(cache=True)
+def _point_at(s, kind, geo, s0, pts, nrm):
+    n = kind.shape[0]
+    for j in range(s.shape[0]):
+        i = n - 1
+        while i > 0 and s0[i] > s[j]:
+            i -= 1
+        g = geo[i]
+        u = s[j] - s0[i]
+        if kind[i] == SEGMENT:
+            dr, dz = g[2] - g[0], g[3] - g[1]
+            L = math.sqrt(dr * dr + dz * dz)
+            f = u / L if L > 0.0 else 0.0
+            pts[j, 0] = g[0] + f * dr
+            pts[j, 1] = g[1] + f * dz
+            tr, tz = (dr / L, dz / L) if L > 0.0 else (0.0, 1.0)
+        else:
+            sg = 1.0 if g[4] > 0.0 else -1.0
+            th = g[3] + sg * u / g[2]
+            pts[j, 0] = g[0] + g[2] * math.cos(th)
+            pts[j, 1] = g[1] + g[2] * math.sin(th)
+            tr, tz = -sg * math.sin(th), sg * math.cos(th)
+        nrm[j, 0] = tz
+        nrm[j, 1] = -tr
 
 
 @numba.njit(cache=True)
@@ -307,7 +339,9 @@ def _project(p, kind, geo, s0, n_end, d_out, q_out, n_out, s_out, piece_out):
             pnr /= pl
             pnz /= pl
             dist = math.sqrt(best)
-            if dist > 0.0:
+            # a point at the vertex to round-off takes the pseudo-normal (its direction to
+            # the vertex would be noise)
+            if dist > 1e-12 * (abs(bqr) + abs(bqz) + 1e-300):
                 wr, wz = (bqr - pr) / dist, (bqz - pz) / dist
                 sign = 1.0 if wr * pnr + wz * pnz >= 0.0 else -1.0
                 n_out[j, 0] = sign * wr

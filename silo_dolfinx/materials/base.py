@@ -42,16 +42,32 @@ class Material:
         """Stored elastic energy Σ ½ σ:C⁻¹:σ dV (J)."""
         return float(_elastic_energy(sig, dV, self.K, self.G))
 
+    def elastic_energy_density(self, sig: np.ndarray) -> np.ndarray:
+        """½ σ:C⁻¹:σ at every point (J/m³)."""
+        out = np.empty(sig.shape[0])
+        _elastic_density(sig, self.K, self.G, out)
+        return out
+
+
+@numba.njit(cache=True, inline="always")
+def _density(s, K, G):
+    m = (s[0] + s[1] + s[2]) / 3.0
+    j2 = 0.5 * ((s[0] - m) ** 2 + (s[1] - m) ** 2 + (s[2] - m) ** 2) + s[3] ** 2
+    return 0.5 * m * m / K + 0.5 * j2 / G
+
 
 @numba.njit(cache=True)
 def _elastic_energy(sig, dV, K, G):
     e = 0.0
     for i in range(sig.shape[0]):
-        s = sig[i]
-        m = (s[0] + s[1] + s[2]) / 3.0
-        j2 = 0.5 * ((s[0] - m) ** 2 + (s[1] - m) ** 2 + (s[2] - m) ** 2) + s[3] ** 2
-        e += dV[i] * (0.5 * m * m / K + 0.5 * j2 / G)
+        e += dV[i] * _density(sig[i], K, G)
     return e
+
+
+@numba.njit(cache=True)
+def _elastic_density(sig, K, G, out):
+    for i in range(sig.shape[0]):
+        out[i] = _density(sig[i], K, G)
 
 
 @numba.njit(cache=True)

@@ -331,6 +331,16 @@ ALE = Section(
         F("mid_area_weight", 0.5, "-", "Weight of mid-area (volume-weighted) smoothing (eq. 3-5); "
           "the two weights sum to at most 1.", lo=0.0, hi=1.0),
         I("remap_order", 2, doc="1: donor cell (first order); 2: limited second order.", lo=1, hi=2),
+        C("predictor", ("previous", "current"), "previous",
+          "Where interior nodes start each smoothing: previous = their last smoothed position (the "
+          "mesh stays put unless the boundary moves: mostly Eulerian); current = where the material "
+          "took them (mostly Lagrangian, more distortion, less remapping)."),
+        C("smoothing_objective", ("graded", "uniform"), "graded",
+          "graded: smooth only the distortion relative to the initial mesh (keeps its refinement); "
+          "uniform: plain eqs. 3-4/3-5 (evens out element sizes)."),
+        I("tracer_rows", 10, doc="Rows of tracers (material points) seeded at the opening, for flow "
+          "patterns; 0 = none.", lo=0),
+        I("tracer_columns", 12, doc="Tracers per row, from the axis to the wall.", lo=1),
     ),
 )
 

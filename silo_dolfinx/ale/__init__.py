@@ -1,0 +1,182 @@
+"""Arbitrary Lagrangian–Eulerian discharge (thesis ch. 3.2): smooth, then remap.
+
+The explicit solver takes Lagrangian steps (the mesh moves with the material). Every
+``frequency`` steps, :meth:`ALE.apply` runs the two other stages of the operator split:
+
+1. **smoothing** (:mod:`.smoothing`): new node positions — outlet Eulerian, walls and top
+   following the material normal to them and relaxed along them, interior smoothed by the
+   Laplacian/mid-area averages of eqs. 3-4, 3-5;
+2. **remap** (:mod:`.remap`): quadrature data (stress, plastic strain, any material state,
+   density) and nodal velocity carried from the Lagrangian mesh to the smoothed one by a
+   conservative, bound-preserving flux-form remap; material crossing the outlet leaves.
+
+Then the solver rebuilds what depends on mesh and state (lumped mass by dolfinx assembly,
+volumes, stable Δt, internal force) and the model its loads (gravity on the new mass). The
+energy the remap removes (upwinding) and the energy the discharged material carries away
+are booked in the energy balance. :class:`Tracers` follow material points for flow patterns.
+
+Cell data move as cell means (mass-weighted) with each cell's internal variation restored
+within local bounds (:func:`.remap.redistribute`), so a mesh that does not move is left
+exactly as it was.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from mpi4py import MPI
+
+from silo_dolfinx.ale.remap import RemapReport, Remapper, cell_state, qp_volumes, redistribute
+from silo_dolfinx.ale.smoothing import Smoother
+from silo_dolfinx.ale.tracers import Tracers
+
+__all__ = ["ALE", "Remapper", "Smoother", "Tracers", "RemapReport"]
+
+
+@dataclass
+class ALEStats:
+    remaps: int = 0
+    substeps: int = 0
+    max_courant: float = 0.0
+    outflow_mass: float = 0.0  # kg (rank-local; :meth:`ALE.totals` sums)
+    outflow_momentum_z: float = 0.0
+    seconds: dict = field(default_factory=lambda: {"smoothing": 0.0, "remap": 0.0, "rebuild": 0.0})
+
+
+class ALE:
+    """Smoothing + remap of a :class:`~silo_dolfinx.simulation.SiloModel` during discharge."""
+
+    def __init__(self, model, *, frequency: int = 10, sweeps: int = 1, laplacian_weight: float = 0.5,
+                 mid_area_weight: float = 0.5, remap_order: int = 2, predictor: str = "previous",
+                 objective: str = "graded", tracers: tuple[int, int] = (0, 0)):
+        from silo_dolfinx._compat import geometry_dofmap
+
+        s = model.solver
+        if s.active_cells.size != s.n_cells_owned:
+            raise RuntimeError("ALE needs every cell active (it starts with the discharge)")
+        self.model = model
+        self.solver = s
+        self.mesh = model.sm.mesh
+        self.frequency = frequency
+        self.smoother = Smoother(model.sm, model.contact_wall_open, laplacian_weight=laplacian_weight,
+                                 mid_area_weight=mid_area_weight, sweeps=sweeps, predictor=predictor,
+                                 objective=objective)
+        self.remapper = Remapper(self.mesh, model.sm.facets("outlet"), remap_order)
+        self.cn_tensor = np.ascontiguousarray(geometry_dofmap(self.mesh)[: s.n_cells_owned].astype(np.int64))
+        m = s.material
+        self.fields = [("sig", 4)] + [(k, c) for k, c in m.state_fields.items()]
+        self.k = sum(c for _, c in self.fields)
+        n = s.n_cells_owned * s.nq
+        no = s.n_cells_owned
+        self._Q = np.zeros((n, self.k))
+        self._dV = np.zeros(n)
+        self._means, self._lo, self._hi = np.zeros((no, self.k)), np.zeros((no, self.k)), np.zeros((no, self.k))
+        self._vol, self._rho = np.zeros(no), np.zeros(no)
+        # cells that touch the outlet: the only ones whose energy can leave
+        f2c = self.mesh.topology.connectivity(1, 2)
+        outlet = model.sm.facets("outlet")
+        cells = np.concatenate([f2c.links(f) for f in outlet]) if len(outlet) else np.zeros(0, np.int32)
+        self._outlet_cells = np.unique(cells[cells < no]).astype(np.int64)  # empty on ranks away from it
+        self._points = np.ascontiguousarray(s.forms.points, dtype=np.float64)
+        self._weights = np.ascontiguousarray(s.forms.weights, dtype=np.float64)
+        self.stats = ALEStats()
+        self.tracers = Tracers(self, *tracers) if tracers[0] * tracers[1] > 0 else None
+        self._steps0 = s.steps
+
+    def due(self) -> bool:
+        return (self.solver.steps - self._steps0) % self.frequency == 0
+
+    # ------------------------------------------------------------------ the split step
+    def apply(self) -> RemapReport:
+        """Smooth the mesh and remap the state onto it (between two solver steps)."""
+        s = self.solver
+        nq = s.nq
+        x = self.mesh.geometry.x
+        xL = np.ascontiguousarray(x[:, :2])
+        t0 = time.perf_counter()
+        xS = self.smoother.smooth(xL)
+        t1 = time.perf_counter()
+
+        # cell means of the quadrature data at the Lagrangian positions
+        no = s.n_cells_owned
+        qp_volumes(xL, self.cn_tensor, self._points, self._weights, no, self._dV)
+        Q = self._gather()
+        means, lo, hi, rho = self._means, self._lo, self._hi, self._rho
+        cell_state(Q, s.rho, nq, self._dV, means, lo, hi, self._vol, rho)
+        v = np.ascontiguousarray(s.v[s.node_dof])
+        before = s.mechanical_energy_local()
+        elastic_density = self._elastic_per_mass()  # J/kg of the outlet cells, for what flows out
+
+        rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
+        t2 = time.perf_counter()
+
+        # write back: mesh, quadrature data, velocity; rebuild what depends on them
+        x[:, :2] = xS
+        qp_volumes(xS, self.cn_tensor, self._points, self._weights, no, self._dV)
+        redistribute(Q, nq, self._dV, means, lo, hi)
+        self._scatter(Q)
+        s.rho[:] = np.repeat(rho, nq)
+        s.v[s.node_dof] = v
+        s.after_remap()
+        self.model.after_remap()
+        if self.tracers is not None:
+            self.tracers.relocate(xL, xS)
+        out_el = float(np.dot(rep.outflow_cells[self._outlet_cells], elastic_density))
+        out = rep.outflow_kinetic + out_el
+        s.energy.outflow += out
+        s.energy.remap += before - s.mechanical_energy_local() - out
+        t3 = time.perf_counter()
+
+        st = self.stats
+        st.remaps += 1
+        st.substeps += rep.substeps
+        st.max_courant = max(st.max_courant, rep.courant)
+        st.outflow_mass += rep.outflow_mass
+        st.outflow_momentum_z += rep.outflow_momentum[1]
+        st.seconds["smoothing"] += t1 - t0
+        st.seconds["remap"] += t2 - t1
+        st.seconds["rebuild"] += t3 - t2
+        return rep
+
+    def _gather(self) -> np.ndarray:
+        s = self.solver
+        Q = self._Q
+        j = 0
+        for name, c in self.fields:
+            a = s.sig if name == "sig" else s.state[name]
+            Q[:, j:j + c] = a.reshape(-1, c)
+            j += c
+        return Q
+
+    def _scatter(self, Q: np.ndarray) -> None:
+        s = self.solver
+        j = 0
+        for name, c in self.fields:
+            a = s.sig if name == "sig" else s.state[name]
+            a.reshape(-1, c)[:] = Q[:, j:j + c]
+            j += c
+
+    def _elastic_per_mass(self) -> np.ndarray:
+        """Elastic energy per unit mass of the owned cells at the outlet (J/kg)."""
+        s = self.solver
+        nq = s.nq
+        c = self._outlet_cells
+        idx = (c[:, None] * nq + np.arange(nq)).ravel()
+        e = s.material.elastic_energy_density(np.ascontiguousarray(s.sig[idx])) * self._dV[idx]
+        return e.reshape(-1, nq).sum(axis=1) / np.maximum(self._rho[c] * self._vol[c], 1e-300)
+
+    # ------------------------------------------------------------------ diagnostics
+    def totals(self) -> dict:
+        """Global counters (collective)."""
+        c = self.solver.comm
+        st = self.stats
+        return {"remaps": st.remaps, "substeps": st.substeps, "max_courant": st.max_courant,
+                "discharged_mass": c.allreduce(st.outflow_mass, op=MPI.SUM),
+                "smoothing_backoffs": self.smoother.backoffs,
+                "seconds": {k: c.allreduce(v, op=MPI.MAX) for k, v in st.seconds.items()}}
+
+    def mesh_quality(self) -> tuple[float, float]:
+        """Global (min scaled Jacobian, max aspect ratio) of the current mesh."""
+        return self.smoother.quality(np.ascontiguousarray(self.mesh.geometry.x[:, :2]))

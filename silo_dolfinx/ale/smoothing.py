@@ -1,0 +1,263 @@
+"""Mesh smoothing for ALE (thesis ch. 3.2.2): where the mesh goes after the Lagrangian steps.
+
+Nodes are classed by the boundary they lie on, each with the rule of the thesis' ALE
+boundary definition (ch. 3.5, Fig. 3-9: walls and top Lagrangian in the normal direction,
+outlet Eulerian):
+
+outlet (incl. its two end nodes)
+    back to their place at the start of the discharge: an **Eulerian** boundary through
+    which the material leaves;
+wall
+    on the analytic wall, at the material's normal offset (0 in contact), **relaxed along
+    the tangent**: below the highest wall corner under the fill the arclength is held
+    (Eulerian along the wall); above it the nodes are spread in proportion to their initial
+    arclength between that corner and the top-corner node, which follows the material;
+axis
+    r = 0, heights spread in proportion between the outlet and the top node on the axis;
+top (free surface)
+    on the *current* material surface (the polyline of the Lagrangian top nodes, so the
+    surface follows the material in its normal direction), at their initial fractions of
+    its arclength (relaxed tangentially);
+top corners (top ∩ wall, top ∩ axis)
+    Lagrangian;
+interior
+    from a *predictor* — the previous smoothed position (``previous``, the mesh stays put
+    unless the boundary moves: an Eulerian-like interior) or the Lagrangian one
+    (``current``) — then ``sweeps`` Jacobi sweeps of the weighted Laplacian (eq. 3-4:
+    mean of the edge neighbours) and mid-area (eq. 3-5: area-weighted mean of the
+    adjacent cell centroids) averages:
+
+        x ← x + w_L (L(x) − x) + w_A (A(x) − x)        ("uniform"),
+
+    or, with the ``graded`` objective (the default, as Abaqus' adaptive meshing), with the
+    residuals of the reference mesh subtracted, so that the initial mesh and its grading
+    (e.g. refinement at the outlet) are a fixed point and only distortion is smoothed.
+
+Every owned cell adds its share to its four nodes (half of each of its two edges at a
+node, its area and centroid), owners sum them (reverse scatter) and ghosts receive the new
+positions (forward scatter): correct under MPI without ghost-node fans. A smoothing that
+would invert a cell or drop the scaled Jacobian below a floor is scaled back towards the
+Lagrangian mesh (θ = 1, ½, ¼, …, 0 — the Lagrangian mesh is always valid).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from mpi4py import MPI
+
+from silo_dolfinx._compat import geometry_dofmap
+from silo_dolfinx.ale.remap import _orientation
+from silo_dolfinx.geometry.quality import CYCLE, worst_cells
+
+OUTLET, TOP_CORNER, WALL, AXIS, TOP, INTERIOR = range(6)
+MIN_SCALED_JACOBIAN = 0.05  # a smoothed cell must keep every corner angle above ~3°
+
+
+class Smoother:
+    """Smoothed node positions from Lagrangian ones, for a silo mesh."""
+
+    def __init__(self, sm, wall, *, laplacian_weight: float = 0.5, mid_area_weight: float = 0.5, sweeps: int = 1,
+                 predictor: str = "previous", objective: str = "graded"):
+        from dolfinx import la
+
+        if laplacian_weight + mid_area_weight > 1.0 + 1e-12:
+            raise ValueError("[ale] laplacian_weight + mid_area_weight must not exceed 1")
+        mesh = sm.mesh
+        self.comm = mesh.comm
+        self.wall = wall
+        self.wL, self.wA = laplacian_weight, mid_area_weight
+        self.sweeps = sweeps
+        self.predictor = predictor
+        x = mesh.geometry.x
+        self.X = np.ascontiguousarray(x[:, :2])  # the reference mesh: where ALE started
+        nmap = mesh.geometry.index_map()
+        self.nn = nmap.size_local
+        self.n_nodes = nmap.size_local + nmap.num_ghosts
+        self.n_cells = mesh.topology.index_map(2).size_local
+        self.cn = np.ascontiguousarray(geometry_dofmap(mesh)[: self.n_cells][:, CYCLE].astype(np.int64))
+        self.orient = _orientation(x, self.cn)
+        self._acc = la.vector(nmap, 6)
+        self._pos = la.vector(nmap, 2)
+
+        # node classes, by priority (a node on two boundaries takes the first rule)
+        on = {name: np.zeros(self.n_nodes, bool) for name in ("outlet", "top", "wall", "axis")}
+        for name, mask in on.items():
+            mask[sm.nodes_on(name)] = True
+        cls = np.full(self.n_nodes, INTERIOR, np.int64)
+        cls[on["top"]] = TOP
+        cls[on["axis"]] = AXIS
+        cls[on["wall"]] = WALL
+        cls[on["top"] & (on["wall"] | on["axis"])] = TOP_CORNER
+        cls[on["outlet"]] = OUTLET
+        self.cls = cls
+        own = np.arange(self.n_nodes) < self.nn
+        self.interior = np.nonzero(own & (cls == INTERIOR))[0]
+        self.outlet = np.nonzero(own & (cls == OUTLET))[0]
+        self.wall_nodes = np.nonzero(own & (cls == WALL))[0]
+        self.axis_nodes = np.nonzero(own & (cls == AXIS))[0]
+        self.top_nodes = np.nonzero(own & (cls == TOP))[0]
+        corner = own & (cls == TOP_CORNER)
+        self.wall_corner = np.nonzero(corner & on["wall"])[0]
+        self.axis_corner = np.nonzero(corner & on["axis"])[0]
+
+        # wall: initial arclengths; anchors (outlet edge and wall corners)
+        self.S0 = wall.project(self.X[self.wall_nodes]).s
+        self.S0_top = self._global_value(wall.project(self.X[self.wall_corner]).s)
+        self.anchors = np.concatenate([[0.0], wall.corner_s()])
+        # axis: initial heights and the top node's
+        self.Z0 = self.X[self.axis_nodes, 1].copy()
+        self.Z0_top = self._global_value(self.X[self.axis_corner, 1])
+        # top: every owned top node's initial arclength fraction along the top
+        gidx = nmap.local_to_global(np.arange(self.n_nodes, dtype=np.int32))
+        self._top_all = np.nonzero(own & ((cls == TOP) | (cls == TOP_CORNER)) & on["top"])[0]
+        self._top_gidx = gidx[self._top_all]
+        order, pts = self._top_polyline(self.X)
+        s = _arclength(pts)
+        lam = s / max(s[-1], 1e-300)
+        where = {g: i for i, g in enumerate(order)}
+        self.top_fraction = np.array([lam[where[g]] for g in gidx[self.top_nodes]])
+
+        # graded objective: the reference mesh's own residuals are subtracted
+        self.r0 = np.zeros((self.n_nodes, 4))
+        if objective == "graded":
+            self.r0[:] = self._residuals(self.X)
+        self.x_prev = self.X.copy()
+        self.backoffs = 0
+
+    # ------------------------------------------------------------------ helpers
+    def _global_value(self, local: np.ndarray) -> float:
+        """The one value held by whichever rank owns it (NaN if none does)."""
+        v = float(local[0]) if local.size else -np.inf
+        g = self.comm.allreduce(v, op=MPI.MAX)
+        return g if np.isfinite(g) else float("nan")
+
+    def _top_polyline(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Global indices and positions of all top nodes in order from the axis to the wall
+        (gathered on every rank; ordered by their radius in the reference mesh)."""
+        data = np.column_stack([self._top_gidx.astype(float), self.X[self._top_all, 0], x[self._top_all]])
+        allp = np.concatenate(self.comm.allgather(data))  # owned nodes: each node once
+        allp = allp[np.argsort(allp[:, 1], kind="stable")]
+        return allp[:, 0].astype(np.int64), np.ascontiguousarray(allp[:, 2:4])
+
+    def _residuals(self, x: np.ndarray) -> np.ndarray:
+        """Per node: (L(x) − x, A(x) − x) for owned nodes (ghost rows zero)."""
+        from dolfinx import la
+
+        acc = self._acc.array.reshape(-1, 6)
+        acc[:] = 0.0
+        _accumulate(x, self.cn, self.orient, self.n_cells, acc)
+        self._acc.scatter_reverse(la.InsertMode.add)
+        out = np.zeros((self.n_nodes, 4))
+        nn = self.nn
+        w = np.where(acc[:nn, 2] > 0, acc[:nn, 2], 1.0)
+        a = np.where(acc[:nn, 5] > 0, acc[:nn, 5], 1.0)
+        out[:nn, 0:2] = acc[:nn, 0:2] / w[:, None] - x[:nn]
+        out[:nn, 2:4] = acc[:nn, 3:5] / a[:, None] - x[:nn]
+        return out
+
+    def _sync(self, x: np.ndarray) -> None:
+        """Ghost rows of ``x`` from their owners."""
+        p = self._pos.array.reshape(-1, 2)
+        p[: self.nn] = x[: self.nn]
+        self._pos.scatter_forward()
+        x[self.nn:] = p[self.nn:]
+
+    def quality(self, x: np.ndarray) -> tuple[float, float]:
+        """Global (min scaled Jacobian, max aspect ratio) of the owned cells at ``x``."""
+        s, a = worst_cells(x, self.cn, self.orient, self.n_cells)
+        return self.comm.allreduce(s, op=MPI.MIN), self.comm.allreduce(a, op=MPI.MAX)
+
+    # ------------------------------------------------------------------ the smoothing
+    def targets(self, xL: np.ndarray) -> np.ndarray:
+        """Boundary nodes on their targets; interior nodes at the predictor (owned rows)."""
+        x = (self.x_prev if self.predictor == "previous" else xL).copy()
+        x[self.outlet] = self.X[self.outlet]
+        x[self.wall_corner] = xL[self.wall_corner]
+        x[self.axis_corner] = xL[self.axis_corner]
+        # wall: Eulerian below the highest anchor under the top corner, stretched above it
+        s_top = self._global_value(self.wall.project(xL[self.wall_corner]).s)
+        if self.wall_nodes.size:
+            below = self.anchors[self.anchors < min(s_top, self.S0_top) - 1e-9 * self.wall.length]
+            s_c = float(below.max()) if below.size else 0.0
+            s = np.where(self.S0 <= s_c, self.S0,
+                         s_c + (self.S0 - s_c) * (s_top - s_c) / max(self.S0_top - s_c, 1e-300))
+            proj = self.wall.project(xL[self.wall_nodes])
+            p, n = self.wall.point_normal_at(s)
+            gap = np.maximum(proj.distance, 0.0)  # the material's normal offset (a gap, never inside)
+            x[self.wall_nodes] = p - gap[:, None] * n
+        # axis: heights spread between the outlet (z = 0) and the top node on the axis
+        z_top = self._global_value(xL[self.axis_corner, 1])
+        if self.axis_nodes.size:
+            x[self.axis_nodes, 0] = 0.0
+            x[self.axis_nodes, 1] = self.Z0 * (z_top / self.Z0_top)
+        # top: on the current material surface at the initial arclength fractions
+        _, pts = self._top_polyline(xL)
+        if self.top_nodes.size:
+            s = _arclength(pts)
+            st = self.top_fraction * s[-1]
+            x[self.top_nodes, 0] = np.interp(st, s, pts[:, 0])
+            x[self.top_nodes, 1] = np.interp(st, s, pts[:, 1])
+        return x
+
+    def smooth(self, xL: np.ndarray) -> np.ndarray:
+        """New node positions (all local rows) for the Lagrangian positions ``xL`` (n, 2)."""
+        xL = np.ascontiguousarray(xL[:, :2])
+        x = self.targets(xL)
+        self._sync(x)
+        for _ in range(self.sweeps):
+            if self.wL == 0.0 and self.wA == 0.0:
+                break
+            r = self._residuals(x)
+            i = self.interior
+            x[i] += self.wL * (r[i, 0:2] - self.r0[i, 0:2]) + self.wA * (r[i, 2:4] - self.r0[i, 2:4])
+            self._sync(x)
+        # never worse than the floor, or than the Lagrangian mesh if that is already below it
+        theta = 1.0
+        xs = x
+        q = self.quality(xs)[0]
+        floor = MIN_SCALED_JACOBIAN if q >= MIN_SCALED_JACOBIAN else min(MIN_SCALED_JACOBIAN,
+                                                                         0.999 * self.quality(xL)[0])
+        while q < floor:
+            self.backoffs += 1
+            theta *= 0.5
+            if theta < 1e-3:
+                xs = xL.copy()
+                break
+            xs = xL + theta * (x - xL)
+            q = self.quality(xs)[0]
+        self.x_prev = xs.copy()
+        return xs
+
+
+@numba.njit(cache=True)
+def _accumulate(x, cn, orient, n_cells, acc):
+    """Each cell's share: half of each edge at a node (Laplacian), area and area × centroid."""
+    for c in range(n_cells):
+        a2 = 0.0
+        cr = 0.0
+        cz = 0.0
+        for k in range(4):
+            p, q = cn[c, k], cn[c, (k + 1) % 4]
+            cross = x[p, 0] * x[q, 1] - x[q, 0] * x[p, 1]
+            a2 += cross
+            cr += (x[p, 0] + x[q, 0]) * cross
+            cz += (x[p, 1] + x[q, 1]) * cross
+        area = 0.5 * a2 * orient[c]
+        if a2 != 0.0:
+            cr /= 3.0 * a2
+            cz /= 3.0 * a2
+        for k in range(4):
+            n = cn[c, k]
+            prev = cn[c, (k + 3) % 4]
+            nxt = cn[c, (k + 1) % 4]
+            acc[n, 0] += 0.5 * (x[prev, 0] + x[nxt, 0])
+            acc[n, 1] += 0.5 * (x[prev, 1] + x[nxt, 1])
+            acc[n, 2] += 1.0
+            acc[n, 3] += area * cr
+            acc[n, 4] += area * cz
+            acc[n, 5] += area
+
+
+def _arclength(pts: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])

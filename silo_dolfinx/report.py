@@ -8,6 +8,8 @@ Every figure uses the thesis' axes and shows the matching theory beside the simu
 * ``spectra.png`` — amplitude spectra at the stations, eq. 4-12's frequency marked;
 * ``outlet.png`` — outlet velocity and mass flow rate against Beverloo (eq. 4-6/4-8);
 * ``flow_channel.png`` — the flow-channel boundary (v_z = 0.001 × centreline, ch. 6.4.3);
+* ``mesh_quality.png`` — aspect ratio against top-surface drop (Fig. 3-18), scaled Jacobian;
+* ``flow_pattern.png`` — tracer rows at four times (ALE discharges);
 * ``energy.png`` — energy terms and the balance error;
 * ``field_q_over_p.png``, ``field_velocity.png`` — renders of the last field snapshot;
 
@@ -254,6 +256,57 @@ class Report:
         a2.grid(alpha=0.3)
         self._save(fig, "outlet.png", "Outlet velocity and mass flow rate against Beverloo.")
 
+    def mesh_quality(self) -> None:
+        """Critical-element aspect ratio against the fall of the top surface (Fig. 3-18)."""
+        import matplotlib.pyplot as plt
+
+        d = _read_csv(self.folder / "mesh_quality.csv")
+        if d is None:
+            return  # no discharge: nothing to show, nothing missing
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+        a1.plot(1e3 * d["top_drop"], d["max_aspect_ratio"], "k-", lw=1)
+        a1.set_xlabel("top-surface drop on the axis (mm)")
+        a1.set_ylabel("max element aspect ratio")
+        a1.grid(alpha=0.3)
+        a2.plot(d["t"], d["min_scaled_jacobian"], "k-", lw=1)
+        a2.set_xlabel("time t (s)")
+        a2.set_ylabel("min scaled Jacobian (> 0: no inverted cell)")
+        a2.grid(alpha=0.3)
+        self.numbers.append(("max aspect ratio, start → worst", f"{d['max_aspect_ratio'][0]:.3g} → "
+                             f"{np.nanmax(d['max_aspect_ratio']):.3g}"))
+        self.numbers.append(("min scaled Jacobian during discharge", f"{np.nanmin(d['min_scaled_jacobian']):.3g}"))
+        self._save(fig, "mesh_quality.png", "Mesh quality in the discharge: aspect ratio of the critical element "
+                   "against the top-surface drop (thesis Fig. 3-18) and the worst scaled Jacobian.")
+
+    def flow_pattern(self) -> None:
+        """Tracer rows (coloured layers) at a few snapshot times: the flow pattern."""
+        import matplotlib.pyplot as plt
+
+        snaps = [np.load(f) for f in sorted((self.folder / "fields").glob("snapshot_*.npz"))]
+        snaps = [s for s in snaps if "tracer_xy" in s.files]
+        if not snaps:
+            return  # no ALE discharge with tracers
+        pick = [snaps[i] for i in sorted({0, len(snaps) // 3, (2 * len(snaps)) // 3, len(snaps) - 1})]
+        fig, axes = plt.subplots(1, len(pick), figsize=(3.2 * len(pick), 4.5), sharey=True)
+        axes = np.atleast_1d(axes)
+        rows = int(max(s["tracer_row"].max(initial=0) for s in pick)) + 1
+        cmap = plt.get_cmap("tab10")
+        for ax, snap in zip(axes, pick):
+            c = snap["corners"]
+            edges = np.concatenate([c, c[:, :1]], axis=1)
+            ax.plot(edges[..., 0].T, edges[..., 1].T, color="0.85", lw=0.3)
+            xy, row = snap["tracer_xy"], snap["tracer_row"]
+            ax.scatter(xy[:, 0], xy[:, 1], c=[cmap(int(r) % 10) for r in row], s=8)
+            ax.set_title(f"t = {float(snap['t']):.3g} s ({len(snap['tracer_out_id'])} out)", fontsize=9)
+            ax.set_aspect("equal")
+            ax.set_xlabel("r (m)")
+        axes[0].set_ylabel("z (m)")
+        self.numbers.append(("tracers discharged by the last snapshot",
+                             f"{len(pick[-1]['tracer_out_id'])} of {len(pick[-1]['tracer_out_id']) + len(pick[-1]['tracer_id'])}"
+                             f" ({rows} rows)"))
+        self._save(fig, "flow_pattern.png", "Flow pattern: tracer rows seeded at the opening, at four times "
+                   "(mass flow: the rows stay flat; funnel flow: they dip at the centre).")
+
     def energy(self) -> None:
         import matplotlib.pyplot as plt
 
@@ -375,7 +428,7 @@ class Report:
 
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.spectra, self.outlet, self.flow_channel,
-                     self.energy, self.renders):
+                     self.mesh_quality, self.flow_pattern, self.energy, self.renders):
             try:
                 part()
             except Exception as e:  # a broken part must not lose the others

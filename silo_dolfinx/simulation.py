@@ -179,7 +179,15 @@ class SiloModel:
         s.sig[:, 1] = szz
         s.sig[:, 2] = k0 * szz
         s.sig[:, 3] = 0.0
+        m = s.material
+        if m.plastic:  # a K0 state outside the yield surface is first returned onto it (no dissipation booked)
+            out = np.empty_like(s.sig)
+            state = {k: a.copy() for k, a in s.state.items()}
+            m.update(s.sig.copy(), np.zeros_like(s.sig), s.state, out, state, s.dV)
+            s.sig[:] = out
         s.refresh_force()
+        # stored without any work done on it: the energy balance starts from it
+        s.energy.initial = s.material.elastic_energy(s.sig, s.dV)  # this rank's share (summed globally)
 
     def after_remap(self) -> None:
         """The mesh and the mass changed (ALE remap): gravity on the new mass, surcharge on
@@ -222,7 +230,7 @@ class Recorder:
     """Time histories, profiles and fields of a running model into a :class:`Results` folder."""
 
     ENERGY_COLUMNS = ["t", "stage", "kinetic", "elastic", "plastic", "viscous", "damping", "remap", "outflow",
-                      "gravity_work", "external_work", "contact_work", "balance", "relative_error"]
+                      "initial", "gravity_work", "external_work", "contact_work", "balance", "relative_error"]
     WALL_COLUMNS = ["t", "station", "s", "r", "z", "p_n", "p_s", "slip_velocity"]
     PROFILE_COLUMNS = ["s", "r", "z", "p_n", "p_s", "slip_velocity", "in_contact"]
 
@@ -268,7 +276,7 @@ class Recorder:
         if self.monitor is not None:
             self.monitor.sample()
         self.energy_csv.write([s.t, stage, e.kinetic, e.elastic, e.plastic, e.viscous, e.damping, e.remap,
-                               e.outflow, e.gravity, e.external, e.contact, e.balance, err])
+                               e.outflow, e.initial, e.gravity, e.external, e.contact, e.balance, err])
         w = self.model.wall_state()
         if w is not None and w["s"].size:
             rows = []
@@ -524,7 +532,7 @@ class DischargeMonitor:
 
     outlet.csv: t, discharged_mass (kg: counted by the remap as it leaves through the
     Eulerian outlet; without ALE, the mass of cells below the outlet plane), mass_in_silo,
-    mass_flow_rate (kg/s, from the discharged mass between samples), mean_outlet_velocity
+    mass_flow_rate (kg/s, discharged mass over the last 0.05 s), mean_outlet_velocity
     (m/s, downward, area-weighted over the outlet), mass_balance_error (relative).
     mesh_quality.csv: t, top_drop (m, the free surface on the axis), min_scaled_jacobian,
     max_aspect_ratio (the Fig. 3-18 quantities)."""
@@ -532,6 +540,7 @@ class DischargeMonitor:
     OUTLET_COLUMNS = ["t", "discharged_mass", "mass_in_silo", "mass_flow_rate", "mean_outlet_velocity",
                       "mass_balance_error"]
     MESH_COLUMNS = ["t", "top_drop", "min_scaled_jacobian", "max_aspect_ratio"]
+    RATE_WINDOW = 0.05  # s: the mass flow rate is the discharged mass over this trailing window
 
     def __init__(self, model: SiloModel, results: Results, ale=None):
         from dolfinx import la
@@ -543,6 +552,7 @@ class DischargeMonitor:
         self.model = model
         self.ale = ale
         s = model.solver
+        self.results = results
         self.outlet_csv = results.series("outlet.csv", self.OUTLET_COLUMNS)
         self.mesh_csv = results.series("mesh_quality.csv", self.MESH_COLUMNS)
         self._form = s.forms.tributary_area_form(model.sm.facet_tags, FACET_TAGS["outlet"])
@@ -557,7 +567,9 @@ class DischargeMonitor:
         self._z_top0 = self._axis_top_z()
         self.t0 = s.t
         self.mass0 = self._mass_in_silo()[0]
-        self._last = (s.t, 0.0)
+        from collections import deque
+
+        self._hist = deque([(s.t, 0.0)])
         self.worst_balance = 0.0
         self.aspect0 = self._quality()[1]
         self.flow = []  # (t, rate) samples
@@ -595,9 +607,13 @@ class DischargeMonitor:
         s = self.model.solver
         inside, below = self._mass_in_silo()
         out = self.ale.totals()["discharged_mass"] if self.ale is not None else below
-        t_prev, out_prev = self._last
+        # over a trailing window: the remap counts outflow in packets (every `frequency` steps),
+        # so the difference between two consecutive samples aliases
+        self._hist.append((s.t, out))
+        while len(self._hist) > 2 and self._hist[1][0] <= s.t - self.RATE_WINDOW:
+            self._hist.popleft()
+        t_prev, out_prev = self._hist[0]
         rate = (out - out_prev) / (s.t - t_prev) if s.t > t_prev else 0.0
-        self._last = (s.t, out)
         self._area.array[:] = 0.0
         fem.assemble_vector(self._area.array, self._form)
         self._area.scatter_reverse(la.InsertMode.add)
@@ -610,7 +626,7 @@ class DischargeMonitor:
         self.outlet_csv.write([s.t, out, inside, rate, v_mean, err])
         smin, amax = self._quality()
         self.mesh_csv.write([s.t, self._z_top0 - self._axis_top_z(), smin, amax])
-        self.flow.append((s.t, rate, v_mean, amax))
+        self.flow.append((s.t, rate, v_mean, amax, out))
 
     def summary(self) -> dict:
         d = {"mass_at_opening": self.mass0, "mass_balance_error_max": self.worst_balance}
@@ -618,9 +634,28 @@ class DischargeMonitor:
             f = np.array(self.flow)
             t = f[:, 0] - self.t0
             late = t >= 0.5 * t[-1]  # the second half: past the start-up transient
-            d.update(mean_mass_flow_rate_second_half=float(f[late, 1].mean()),
+            i0 = int(np.argmax(late))
+            span = f[-1, 0] - f[i0, 0]
+            d.update(mean_mass_flow_rate_second_half=float((f[-1, 4] - f[i0, 4]) / span) if span > 0 else 0.0,
                      mean_outlet_velocity_second_half=float(f[late, 2].mean()),
                      initial_max_aspect_ratio=self.aspect0, final_max_aspect_ratio=float(f[-1, 3]))
         if self.ale is not None:
             d["ale"] = self.ale.totals()
+            if self.ale.tracers is not None:
+                d["tracers"] = self._write_tracers()
         return d
+
+    def _write_tracers(self) -> dict:
+        """tracers.csv: one row per tracer: id, row (seeding line, 0 = lowest), r0, z0 (seed),
+        r, z (now; empty once discharged), discharged_at (s; empty while inside)."""
+        g = self.ale.tracers.gather()  # collective
+        comm = self.model.sm.comm
+        if g is None:
+            return comm.bcast(None, root=0)
+        rows = [[int(i), int(k), *p0, *p, ""] for i, k, p0, p in zip(g["id"], g["row"], g["initial"], g["xy"])]
+        rows += [[int(i), int(k), *p0, "", "", float(t)]
+                 for i, k, p0, t in zip(g["out_id"], g["out_row"], g["out_initial"], g["out_t"])]
+        self.results.write_rows("tracers.csv", ["id", "row", "r0", "z0", "r", "z", "discharged_at"],
+                                sorted(rows, key=lambda r: r[0]))
+        return comm.bcast({"seeded": len(rows), "inside": int(g["id"].size), "discharged": int(g["out_id"].size)},
+                          root=0)

@@ -87,15 +87,16 @@ class Energy:
     internal_work: float = 0.0  # stress power integrated (= elastic + plastic for small strains)
     remap: float = 0.0  # kinetic + elastic energy lost by ALE remaps (numerical dissipation)
     outflow: float = 0.0  # kinetic + elastic energy carried out through the outlet
+    initial: float = 0.0  # energy stored in a prescribed initial state (a K0 stress field)
 
     @property
     def balance(self) -> float:
         return (self.kinetic + self.elastic + self.plastic + self.viscous + self.damping + self.remap
-                + self.outflow - self.external)
+                + self.outflow - self.external - self.initial)
 
     @property
     def scale(self) -> float:
-        return max(abs(self.external), self.kinetic + self.elastic + self.plastic, 1e-300)
+        return max(abs(self.external) + self.initial, self.kinetic + self.elastic + self.plastic, 1e-300)
 
     def relative_error(self, scale: float | None = None) -> float:
         """|balance| over the energy scale (default: this record's; the solver passes the
@@ -410,7 +411,7 @@ class ExplicitSolver:
         ke, el = self._kinetic_elastic_local()
         dp, dv, di = getattr(self, "_last_increment", (0.0, 0.0, 0.0))
         names = ["plastic", "viscous", "damping", "external", "gravity", "contact", "internal_work", "remap",
-                 "outflow"]
+                 "outflow", "initial"]
         local = np.array([ke, el] + [getattr(e, k) for k in names])
         local[2] -= 0.5 * dp
         local[3] -= 0.5 * dv
@@ -432,17 +433,32 @@ class ExplicitSolver:
         """This rank's kinetic + elastic energy as :meth:`global_energy` counts them (J)."""
         return sum(self._kinetic_elastic_local())
 
-    def after_remap(self) -> None:
+    def after_remap(self, dV: np.ndarray | None = None, sig_increment: np.ndarray | None = None) -> None:
         """The mesh moved and ``sig``, ``state``, ``rho`` and ``v`` were remapped onto it:
-        rebuild what depends on them (volumes, lumped mass, stable Δt, internal force)."""
+        rebuild what depends on them (volumes, lumped mass, stable Δt, internal force).
+
+        ``dV``: the quadrature-point volumes on the new mesh if the caller has them (all
+        cells active); otherwise they are evaluated here. The cell dilatation rate of the
+        bulk viscosity keeps its value from the last Lagrangian step either way.
+
+        ``sig_increment``: σ^{n+1} − σ^n of the last step at each point before the remap.
+        The energy record is centred at t_{n+½}, the elastic part as the mean over σ^n and
+        σ^{n+1}; the remapped σ^n is taken as the remapped σ^{n+1} minus that increment, so
+        the first step after a remap books consistently (without it, half a step of stress
+        power per remap shows up as balance error)."""
         num = self.numerics
+        t_half = self.t - 0.5 * self.dt_prev  # where the staggered velocity lives
         for c in self.constraints:
-            if c.value is None:
-                self.v[c.dofs, c.comp] = 0.0
+            self.v[c.dofs, c.comp] = 0.0 if c.value is None else c.value(t_half)
         self._vvec.scatter_forward()
-        self.forms.kinematics.eval(self.mesh, self._active, self.kin)
-        kernels.kinematics(self.kin, self.forms.weights, 0.0, num.bbar, self.deps, self.spin, self.dvol, self.dV,
-                           self.trd_cell)
+        if dV is not None and dV.shape == self.dV.shape:
+            np.copyto(self.dV, dV)
+        else:
+            trd = self.trd_cell.copy()
+            self.forms.kinematics.eval(self.mesh, self._active, self.kin)
+            kernels.kinematics(self.kin, self.forms.weights, 0.0, num.bbar, self.deps, self.spin, self.dvol,
+                               self.dV, self.trd_cell)
+            np.copyto(self.trd_cell, trd)
         kernels.cell_average(self.rho, self.dV, self.nq, self.rho_cell)
         self._update_geometry_cache()
         self.dt = num.time_step_scale * self.dt_crit
@@ -450,7 +466,10 @@ class ExplicitSolver:
         kernels.closure(self.sig, self.sig, self.deps, self.dV, self.trd_cell, self.rho, self.L_cell, self.c_cell,
                         *num.bulk_viscosity, num.bbar, self.nq, self.packed)
         self._assemble_internal_force(self._fvec)
-        np.copyto(self._sig_new, self.sig)  # the "previous" stress of the energy average
+        if sig_increment is None:
+            np.copyto(self._sig_new, self.sig)  # the "previous" stress of the energy average
+        else:
+            np.subtract(self.sig, sig_increment, out=self._sig_new)
         np.multiply(self.v, self.dt_prev, out=self._dx_prev)
 
     def replace_gravity(self) -> None:

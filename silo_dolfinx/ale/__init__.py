@@ -74,6 +74,7 @@ class ALE:
         self._dV = np.zeros(n)
         self._means, self._lo, self._hi = np.zeros((no, self.k)), np.zeros((no, self.k)), np.zeros((no, self.k))
         self._vol, self._rho = np.zeros(no), np.zeros(no)
+        self._dsig = np.zeros((n, 4))
         # cells that touch the outlet: the only ones whose energy can leave
         f2c = self.mesh.topology.connectivity(1, 2)
         outlet = model.sm.facets("outlet")
@@ -107,6 +108,7 @@ class ALE:
         cell_state(Q, s.rho, nq, self._dV, means, lo, hi, self._vol, rho)
         v = np.ascontiguousarray(s.v[s.node_dof])
         before = s.mechanical_energy_local()
+        np.subtract(s.sig, s._sig_new, out=self._dsig)  # last step's increment, for the energy record
         elastic_density = self._elastic_per_mass()  # J/kg of the outlet cells, for what flows out
 
         rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
@@ -119,7 +121,7 @@ class ALE:
         self._scatter(Q)
         s.rho[:] = np.repeat(rho, nq)
         s.v[s.node_dof] = v
-        s.after_remap()
+        s.after_remap(self._dV, self._dsig if s.steps > 0 else None)
         self.model.after_remap()
         if self.tracers is not None:
             self.tracers.relocate(xL, xS)

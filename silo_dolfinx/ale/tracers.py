@@ -135,6 +135,7 @@ class Tracers:
                 "xy": np.concatenate([p[2] for p in parts]).reshape(-1, 2),
                 "initial": np.concatenate([p[3] for p in parts]).reshape(-1, 2),
                 "out_id": np.asarray(gone["id"], np.int64), "out_row": np.asarray(gone["row"], np.int64),
+                "out_initial": np.asarray(gone["initial"], float).reshape(-1, 2),
                 "out_t": np.asarray(gone["t"], float)}
 
 

@@ -16,10 +16,10 @@ def make_material(m) -> Material:
         return Elastic(m["youngs_modulus"], m["poisson_ratio"], m["density"])
     if m["model"] == "drucker_prager":
         return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
-                             m["dilation_angle"], m["cohesion"])
+                             m["dilation_angle"], m["cohesion"], m["max_dilation"])
     if m["model"] == "non_coaxial":
         return NonCoaxial(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
-                          m["dilation_angle"], m["cohesion"], m["noncoaxial_modulus"])
+                          m["dilation_angle"], m["cohesion"], m["noncoaxial_modulus"], m["max_dilation"])
     raise ValueError(f"[material] model = {m['model']!r}: unknown")  # the scene schema prevents this
 
 

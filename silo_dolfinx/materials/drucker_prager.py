@@ -11,6 +11,10 @@ with the elastic trial (p*, q*, s*), the flow ∂G/∂σ = (3/2) s/q + (tan ψ/3
 valid while q ≥ 0. Otherwise the trial lies beyond the apex and the stress returns to the
 apex p = −d/tan β, q = 0. Δλ is also the equivalent (deviatoric) plastic strain increment;
 the plastic volume change is tan ψ Δλ (dilation for ψ > 0).
+
+Critical state (optional): with ``max_dilation`` ε_c > 0 a point stops dilating once its
+plastic volume change tan ψ · ε̄_p reaches ε_c (ψ → 0 from then on), as a sheared granular
+solid does at its critical state. Without it the density near an outlet keeps falling.
 """
 
 from __future__ import annotations
@@ -28,17 +32,20 @@ class DruckerPrager(Material):
     plastic = True
     state_fields = {"eqps": 1}  # equivalent plastic strain
 
-    def __init__(self, youngs_modulus, poisson_ratio, density, friction_angle, dilation_angle, cohesion):
+    def __init__(self, youngs_modulus, poisson_ratio, density, friction_angle, dilation_angle, cohesion,
+                 max_dilation: float = 0.0):
         super().__init__(youngs_modulus, poisson_ratio, density)
         self.friction_angle, self.dilation_angle, self.cohesion = friction_angle, dilation_angle, cohesion
         self.tan_beta = math.tan(math.radians(friction_angle))
         self.tan_psi = math.tan(math.radians(dilation_angle))
+        # ε̄_p beyond which ψ = 0 (inf: never)
+        self.eqps_critical = max_dilation / self.tan_psi if max_dilation > 0.0 and self.tan_psi > 0.0 else math.inf
 
     noncoaxial = 0.0  # 4G²/(H_nc + 2G): zero for the coaxial law (see non_coaxial.py)
 
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
         return float(_update(sig, deps, state_old["eqps"], self.K, self.G, self.tan_beta, self.tan_psi,
-                             self.cohesion, self.noncoaxial, sig_new, state_new["eqps"], dV))
+                             self.cohesion, self.noncoaxial, self.eqps_critical, sig_new, state_new["eqps"], dV))
 
     def yield_function(self, sig: np.ndarray) -> np.ndarray:
         """F(σ) for an (n, 4) array (≤ 0 admissible)."""
@@ -77,17 +84,17 @@ def return_map(s_trial, K, G, tanb, tanpsi, d, out):
 
 
 @numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
-def _update(sig, deps, eqps, K, G, tanb, tanpsi, d, c_nc, sig_new, eqps_new, dV):
+def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps_new, dV):
     """The return map of :func:`return_map` over all points, written out in scalars (the
     hot loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p.
 
     c_nc = 4G²/(H_nc + 2G) > 0 adds the yield-vertex non-coaxial plastic strain (eq. 8-11)
     at points that load plastically: the trial deviator loses c_nc Δe_t, Δe_t the part of
-    the deviatoric strain increment tangential to the current deviator s (s : Δe_t = 0)."""
+    the deviatoric strain increment tangential to the current deviator s (s : Δe_t = 0).
+    Points with ε̄_p ≥ eqps_c flow at constant volume (ψ = 0: the critical state)."""
     diss = 0.0
     lam = K - 2.0 * G / 3.0
     two_g = 2.0 * G
-    denom = 3.0 * G + K * tanb * tanpsi
     c = lam / (3.0 * lam + 2.0 * G)
     for i in range(sig.shape[0]):
         e0, e1, e2, e3 = deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3]
@@ -133,7 +140,8 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi, d, c_nc, sig_new, eqps_new, dV)
                         + dV[i] * s3n * r3 / G
                     eqps_new[i] = eqps[i]
                     continue
-        dlam = f / denom
+        tanpsi = tanpsi0 if eqps[i] < eqps_c else 0.0
+        dlam = f / (3.0 * G + K * tanb * tanpsi)
         if 3.0 * G * dlam <= q:  # return to the cone
             qn = q - 3.0 * G * dlam
             pn = p + K * tanpsi * dlam

@@ -213,6 +213,9 @@ MATERIAL = Section(
             F("dilation_angle", 0.0, "deg", "ψ: slope of the plastic potential in the p-q plane "
               "(≤ friction_angle; equal = associated).", lo=0.0, hi=70.0, hi_open=True),
             F("cohesion", 1.0, "Pa", "d: yield q at p = 0.", **NONNEG),
+            F("max_dilation", 0.0, "-", "Volumetric plastic strain at which dilation stops (ψ → 0: the "
+              "critical state of a sheared granular solid, e.g. 0.05). 0 = dilation never stops (the "
+              "thesis' Drucker-Prager: near a hopper outlet the density then keeps falling).", **NONNEG),
         ),
     },
 )

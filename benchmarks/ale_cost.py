@@ -1,0 +1,78 @@
+"""What the ALE discharge costs: simulated seconds per wall-clock minute, and the split.
+
+    python benchmarks/ale_cost.py                      # ch. 4 hopper, 2 ranks, frequencies 10 20 40
+    python benchmarks/ale_cost.py --discharge 2 --ranks 1 2
+
+The ch. 4 scene (~7,300 cells) starts from a K0 state (fill skipped), stores 0.5 s and
+discharges freely for ``--discharge`` seconds, once per ALE frequency and rank count. From
+each run's summary.json: steps, wall-clock of the discharge, and the ALE timers (smoothing,
+remap, rebuild of mass/forces after a remap). The Lagrangian step is what remains. The
+"72 s scene" column extrapolates the full fill-store-discharge run from the measured
+discharge rate (the fill runs at the Lagrangian rate, without ALE, so this is an upper bound).
+Each configuration runs ``--repeat`` times; medians are printed (these machines are noisy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[1]
+SCENE = HERE / "demos" / "scenes" / "hopper_ch4.toml"
+
+
+def one_run(ranks: int, frequency: int, discharge: float, extra: list[str]) -> dict:
+    out = Path(tempfile.mkdtemp(prefix="ale_cost_"))
+    silo = Path(sys.executable).with_name("silo")
+    mpirun = Path(sys.executable).with_name("mpirun")
+    cmd = [str(mpirun) if mpirun.exists() else "mpirun", "-n", str(ranks), str(silo), "run", str(SCENE),
+           "--out", str(out), "--set", 'fill.method="k0"', "--set", "store.duration=0.5",
+           "--set", f"discharge.duration={discharge}", "--set", f"ale.frequency={frequency}",
+           "--set", "output.field_interval=1000.0", *sum((["--set", e] for e in extra), [])]
+    subprocess.run(cmd, check=True, capture_output=True, env=os.environ.copy())
+    s = json.loads((out / "summary.json").read_text())
+    d = next(st for st in s["stages"] if st["name"] == "discharge")
+    ale = d["ale"]["seconds"]
+    t_ale = sum(ale.values())
+    return {"cells": s["cells"], "steps": d["steps"], "wall": d["wall_clock_s"], "simulated": d["t_end"] - d["t_start"],
+            "smoothing": ale["smoothing"], "remap": ale["remap"], "rebuild": ale["rebuild"], "ale": t_ale,
+            "lagrangian": d["wall_clock_s"] - t_ale, "flow": d.get("mean_mass_flow_rate_second_half", float("nan")),
+            "energy_error": s["energy_balance_error_max"], "mass_error": d["mass_balance_error_max"]}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--ranks", type=int, nargs="+", default=[2])
+    ap.add_argument("--frequencies", type=int, nargs="+", default=[10, 20, 40])
+    ap.add_argument("--discharge", type=float, default=3.0, help="simulated discharge seconds per run")
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--set", dest="extra", action="append", default=[], help="extra scene overrides")
+    args = ap.parse_args()
+    print(f"ALE discharge cost, {SCENE.name}, {args.discharge:g} s of free discharge per run, "
+          f"median of {args.repeat}")
+    print(f"{'ranks':>5} {'freq':>4} {'cells':>6} {'steps/s':>8} {'sim s/wall min':>14} {'Lagr. ms/step':>13} "
+          f"{'smooth ms':>9} {'remap ms':>8} {'rebuild ms':>10} {'ALE/Lagr.':>9} {'72 s scene':>10} "
+          f"{'flow kg/s':>9} {'E err':>7}")
+    for ranks in args.ranks:
+        for f in args.frequencies:
+            runs = [one_run(ranks, f, args.discharge, args.extra) for _ in range(args.repeat)]
+            med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+            n_remaps = med["steps"] / f
+            rate = med["simulated"] / med["wall"] * 60.0
+            print(f"{ranks:5d} {f:4d} {int(med['cells']):6d} {med['steps'] / med['wall']:8.0f} {rate:14.2f} "
+                  f"{1e3 * med['lagrangian'] / med['steps']:13.3f} {1e3 * med['smoothing'] / n_remaps:9.2f} "
+                  f"{1e3 * med['remap'] / n_remaps:8.2f} {1e3 * med['rebuild'] / n_remaps:10.2f} "
+                  f"{100 * med['ale'] / med['lagrangian']:8.0f}% {72.0 / rate:8.1f} min {med['flow']:9.2f} "
+                  f"{100 * med['energy_error']:6.2f}%")
+    print("smooth/remap/rebuild in ms per remap; ALE/Lagr. = (smoothing + remap + rebuild) / Lagrangian steps; "
+          "target ≤ 25 % at the default frequency")
+
+
+if __name__ == "__main__":
+    main()

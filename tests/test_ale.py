@@ -1,0 +1,309 @@
+"""The ALE stages, each verified on its own (as Laghos/Remhos do), then together in a discharge.
+
+Remap: a prescribed mesh motion on a rectangle in the (r, z) half-plane; cell means of a
+smooth and of a discontinuous field are remapped and compared with their exact means on
+the final mesh. Smoothing: boundary rules after a Lagrangian discharge. Discharge: mass
+balance, energy balance and mesh quality, ALE against Lagrangian (the Fig. 3-18 analogue).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from conftest import SCENES
+from mpi4py import MPI
+
+from silo_dolfinx.scene import load_scene
+
+# ---------------------------------------------------------------------------- remap alone
+
+
+def _rectangle(comm, n, r0=0.2, with_outlet=False):
+    from dolfinx import mesh as dmesh
+
+    from silo_dolfinx.ale.remap import Remapper
+
+    m = dmesh.create_rectangle(comm, [[r0, 0.0], [r0 + 1.0, 1.0]], [n, n], dmesh.CellType.quadrilateral,
+                               ghost_mode=dmesh.GhostMode.shared_facet)
+    outlet = None
+    if with_outlet:
+        m.topology.create_connectivity(1, 2)
+        outlet = dmesh.locate_entities_boundary(m, 1, lambda x: np.isclose(x[1], 0.0))
+    return m, outlet, Remapper
+
+
+def _smooth(r, z):
+    return 1.0 + 0.5 * np.sin(2 * np.pi * r) * np.cos(2 * np.pi * z)
+
+
+def _disc(r, z):
+    return np.where((r - 0.7) ** 2 + (z - 0.5) ** 2 < 0.3**2, 2.0, 1.0)
+
+
+def _exact_means(x, cn_t, f, n=6):
+    """r-weighted cell means of f by an n×n Gauss rule on the bilinear cells."""
+    g, w = np.polynomial.legendre.leggauss(n)
+    g, w = 0.5 * (g + 1), 0.5 * w
+    xi, eta = np.meshgrid(g, g, indexing="ij")
+    W = np.outer(w, w)
+    N = np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), (1 - xi) * eta, xi * eta])
+    P = x[cn_t][:, :, :2]
+    r = np.einsum("kab,ck->cab", N, P[:, :, 0])
+    z = np.einsum("kab,ck->cab", N, P[:, :, 1])
+
+    def d(k, j, c):
+        return (P[:, k, c] - P[:, j, c])[:, None, None]
+
+    drx = (1 - eta) * d(1, 0, 0) + eta * d(3, 2, 0)
+    dzx = (1 - eta) * d(1, 0, 1) + eta * d(3, 2, 1)
+    dre = (1 - xi) * d(2, 0, 0) + xi * d(3, 1, 0)
+    dze = (1 - xi) * d(2, 0, 1) + xi * d(3, 1, 1)
+    wt = W * r * np.abs(drx * dze - dre * dzx)
+    return (f(r, z) * wt).sum(axis=(1, 2)) / wt.sum(axis=(1, 2))
+
+
+def _remap_run(comm, n, order, f, amplitude=0.15):
+    """Remap cell means through n steps of a smooth interior motion of total size `amplitude`."""
+    m, _, Remapper = _rectangle(comm, n)
+    R = Remapper(m, None, order)
+    X = m.geometry.x.copy()
+    r, z = X[:, 0], X[:, 1]
+    bump = np.sin(np.pi * (r - 0.2)) * np.sin(np.pi * z)
+    D = np.column_stack([amplitude * bump * np.cos(2 * z), amplitude * bump * np.sin(3 * r)])
+    no = R.n_owned
+    q = _exact_means(X, R.cn_tensor[:no], f)[:, None].copy()
+    rho = np.ones(no)
+    v = np.zeros((X.shape[0], 2))
+
+    def totals(x):
+        vol = R.volumes(x)[:no]
+        return (comm.allreduce(float((rho * vol * q[:, 0]).sum())), comm.allreduce(float((rho * vol).sum())),
+                vol)
+
+    tot0, mass0, _ = totals(X)
+    lo0, hi0 = comm.allreduce(q.min(), op=MPI.MIN), comm.allreduce(q.max(), op=MPI.MAX)
+    xa = X.copy()
+    for j in range(n):
+        xb = X.copy()
+        xb[:, :2] += D * (j + 1) / n
+        R.remap(xa, xb, rho, q, v)
+        xa = xb
+    tot, mass, vol = totals(xa)
+    ex = _exact_means(xa, R.cn_tensor[:no], f)
+    err = comm.allreduce(float((np.abs(q[:, 0] - ex) * vol).sum())) / comm.allreduce(float(vol.sum()))
+    return dict(err=err, conservation=abs(tot - tot0) / abs(tot0), mass=abs(mass - mass0) / mass0,
+                overshoot=max(comm.allreduce(q.max(), op=MPI.MAX) - hi0, lo0 - comm.allreduce(q.min(), op=MPI.MIN)),
+                rho_dev=comm.allreduce(float(np.abs(rho - 1.0).max()), op=MPI.MAX))
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("field", [_smooth, _disc], ids=["smooth", "discontinuous"])
+def test_remap_conserves_and_creates_no_extrema(comm, order, field):
+    """Totals to 1e-12 relative, no value outside the initial range (1e-12), and a uniform
+    density stays uniform (the mass-weighted transport of an intensive variable). These are
+    exact properties of the flux form and the FCT limiter: only round-off remains (measured
+    1e-16 … 1e-14 over 32 remaps)."""
+    d = _remap_run(comm, 32, order, field)
+    assert d["conservation"] < 1e-12 and d["mass"] < 1e-12
+    assert d["overshoot"] < 1e-12
+    assert d["rho_dev"] < 1e-12
+
+
+@pytest.mark.parametrize("order,rate", [(1, 0.85), (2, 1.8)])
+def test_remap_order_of_accuracy(comm, order, rate):
+    """Observed L1 order on smooth data at h = 1/16 → 1/32 → 1/64, the motion refined with
+    the mesh (one remap per cell width). Measured: donor cell 0.89, 0.94; limited second
+    order 2.41, 2.16. Bounds: the issue's ≥ 1.8 for second order; 0.85 for first order
+    (asymptotically 1, pre-asymptotic at these sizes)."""
+    errs = [_remap_run(comm, n, order, _smooth)["err"] for n in (16, 32, 64)]
+    rates = [math.log2(errs[i] / errs[i + 1]) for i in range(2)]
+    assert min(rates) >= rate, (errs, rates)
+
+
+def test_remap_discontinuous_field_first_order_is_more_diffusive(comm):
+    """On a step the limiter keeps both schemes bounded; the second-order one must still be
+    the more accurate (measured L1 errors: donor cell 2.3x larger at h = 1/32)."""
+    e1 = _remap_run(comm, 32, 1, _disc)["err"]
+    e2 = _remap_run(comm, 32, 2, _disc)["err"]
+    assert e2 < 0.8 * e1
+
+
+def test_velocity_remap_conserves_momentum_including_the_outflow(comm):
+    """Nodal momentum before = after + what left through the outlet, to 1e-12 relative,
+    with random densities and velocities and an outlet row that the motion resets (as the
+    Eulerian outlet does)."""
+    m, outlet, Remapper = _rectangle(comm, 24, r0=0.0, with_outlet=True)
+    R = Remapper(m, outlet, 2)
+    X = m.geometry.x.copy()
+    nn, no = R.n_nodes_owned, R.n_owned
+    rng = np.random.default_rng(comm.rank)
+    rho = 1000.0 * (1.0 + 0.2 * rng.random(no))
+    q = rng.random((no, 3))
+    gi = m.geometry.index_map().local_to_global(np.arange(X.shape[0], dtype=np.int32))
+    v = np.column_stack([np.sin(gi * 0.37), np.cos(gi * 0.11) - 0.5])  # same on every rank for ghosts
+    r, z = X[:, 0], X[:, 1]
+    b = np.sin(np.pi * r) * np.sin(np.pi * z)
+    xb = X.copy()
+    xb[:, 0] += 0.01 * b
+    xb[:, 1] += 0.01 * b * np.cos(3 * r)
+    xa = X.copy()
+    xa[np.isclose(X[:, 1], 0.0), 1] -= 0.005  # the material moved below the outlet plane
+
+    def momentum(x):
+        M = R.nodal_mass(x, rho)
+        return np.array(comm.allreduce((M[:nn, None] * v[:nn]).sum(axis=0)))
+
+    P0 = momentum(xa)
+    mass0 = comm.allreduce(float((rho * R.volumes(xa)[:no]).sum()))
+    rep = R.remap(xa, xb, rho, q, v)
+    out_m = comm.allreduce(rep.outflow_mass)
+    out_p = np.array(comm.allreduce(np.array(rep.outflow_momentum)))
+    mass1 = comm.allreduce(float((rho * R.volumes(xb)[:no]).sum()))
+    assert out_m > 0.0  # something did leave
+    assert abs(mass0 - mass1 - out_m) < 1e-12 * mass0
+    assert np.abs(P0 - momentum(xb) - out_p).max() < 1e-12 * np.abs(P0).max()
+    # a uniform velocity is reproduced exactly (to round-off)
+    v[:] = [0.3, -1.2]
+    R.remap(xb, X, rho, q, v)
+    assert np.abs(v - [0.3, -1.2]).max() < 1e-12
+
+
+def test_zero_motion_is_the_identity(comm):
+    m, _, Remapper = _rectangle(comm, 12)
+    R = Remapper(m, None, 2)
+    X = m.geometry.x.copy()
+    no = R.n_owned
+    rng = np.random.default_rng(7 + comm.rank)
+    rho = 1.0 + rng.random(no)
+    q = rng.random((no, 2))
+    v = np.tile([0.1, -0.2], (X.shape[0], 1))
+    rho0, q0 = rho.copy(), q.copy()
+    rep = R.remap(X, X, rho, q, v)
+    # the swept volumes of a null motion are round-off (shoelace of equal points: ~1e-16), and so
+    # are the fluxes; relative to a random field's jumps that is at most ~4e-13 (measured)
+    assert rep.courant < 1e-14
+    assert np.allclose(rho, rho0, rtol=1e-12, atol=0) and np.allclose(q, q0, rtol=1e-12, atol=0)
+    assert np.allclose(v, [0.1, -0.2], rtol=1e-12, atol=0)
+
+
+# ---------------------------------------------------------------------------- in a discharge
+
+def _ch3_scene(ale: bool, duration: float, h: float = 0.05):
+    """The ch. 3 hopper (Fig. 3-17) with a K0 initial state: the discharge alone."""
+    return load_scene(SCENES / "hopper_ch3_ale.toml",
+                      [f"ale.enabled={'true' if ale else 'false'}", 'fill.method="k0"', "store.duration=0.0",
+                       f"discharge.duration={duration}", f"geometry.element_size={h}",
+                       "output.history_rate=50.0", "output.field_interval=100.0"])
+
+
+@pytest.fixture(scope="module")
+def ale_run(tmp_path_factory):
+    from silo_dolfinx.simulation import run
+
+    comm = MPI.COMM_WORLD
+    out = tmp_path_factory.mktemp("ale") if comm.rank == 0 else None
+    from pathlib import Path
+
+    out = Path(comm.bcast(str(out), root=0)) / "run"
+    summary = run(_ch3_scene(True, 1.5), out, comm, progress_every=1e9)
+    return out, summary
+
+
+def _csv(path):
+    import csv
+
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0] if k != "stage"}
+
+
+def test_discharge_mass_balance_and_energy(ale_run):
+    """Initial mass = mass in the silo + discharged mass to 0.5 % (the issue's bound; the
+    remap is conservative, so the measured error is round-off, ~1e-9); energy balance with
+    the remap and outflow terms booked < 1 % (measured 0.2 %)."""
+    out, summary = ale_run
+    d = summary["stages"][-1]
+    assert summary["status"] == "completed"
+    assert d["mass_balance_error_max"] < 0.005
+    o = _csv(out / "outlet.csv")
+    assert o["discharged_mass"][-1] > 0.01 * d["mass_at_opening"]  # it does flow (measured 1.2 % in 1.5 s)
+    assert np.all(np.diff(o["discharged_mass"]) >= -1e-9 * d["mass_at_opening"])
+    e = _csv(out / "energy.csv")
+    assert np.nanmax(e["relative_error"]) < 0.01
+
+
+def test_discharge_keeps_every_cell_valid_and_the_boundary_rules(ale_run):
+    """No inverted cell (scaled Jacobian > 0 throughout) and the aspect ratio within 1.5x its
+    initial value (the issue's bound for ALE)."""
+    out, summary = ale_run
+    q = _csv(out / "mesh_quality.csv")
+    assert q["min_scaled_jacobian"].min() > 0.0
+    assert q["max_aspect_ratio"].max() < 1.5 * q["max_aspect_ratio"][0]
+    assert q["top_drop"][-1] > 0.0  # the free surface came down
+
+
+def test_lagrangian_mesh_degrades_where_ale_does_not(ale_run, shared_tmp, comm):
+    """Fig. 3-18 analogue: over the same discharge the Lagrangian critical-element aspect ratio
+    grows well past the ALE one (thesis: 7 at a 25 mm drop, ALE ~constant)."""
+    from silo_dolfinx.simulation import run
+
+    out_ale, _ = ale_run
+    out = shared_tmp / "lag"
+    try:
+        run(_ch3_scene(False, 1.5), out, comm, progress_every=1e9)
+    except Exception:  # the Lagrangian run may die of its distortion: that is the point
+        pass
+    comm.barrier()
+    lag = _csv(out / "mesh_quality.csv")
+    ale = _csv(out_ale / "mesh_quality.csv")
+    t = min(lag["t"][-1], ale["t"][-1])
+    a_lag = lag["max_aspect_ratio"][lag["t"] <= t].max() / lag["max_aspect_ratio"][0]
+    a_ale = ale["max_aspect_ratio"][ale["t"] <= t].max() / ale["max_aspect_ratio"][0]
+    assert a_lag > 2.0 and a_ale < 1.5, (a_lag, a_ale)
+
+
+def test_tracers_follow_the_flow(ale_run):
+    """Every seeded tracer is either inside the silo or recorded as discharged; none rises by
+    more than a cell size (the flow is downward everywhere); none leaves the half-plane; the
+    discharged ones come from below the mean seeding height (the outlet drains the bottom)."""
+    out, summary = ale_run
+    tr = _csv(out / "tracers.csv")
+    info = summary["stages"][-1]["tracers"]
+    assert info["seeded"] == tr["id"].size == 10 * 12  # the scene's default 10 rows x 12
+    assert info["inside"] + info["discharged"] == info["seeded"]
+    inside = np.isnan(tr["discharged_at"])
+    assert np.all(tr["z"][inside] <= tr["z0"][inside] + 0.05)
+    assert np.all(tr["r"][inside] >= -1e-12)
+    assert np.any(tr["z"][inside] < tr["z0"][inside] - 0.02)  # they do move
+    if info["discharged"]:
+        assert tr["z0"][~inside].mean() < tr["z0"].mean()
+
+
+def test_controlled_discharge_follows_eq_3_14(shared_tmp, comm):
+    """Controlled discharge (eq. 3-14 ramp to u0 over T) through the Eulerian outlet: the mean
+    outlet velocity is the prescribed u(t) (the outlet nodes are driven: round-off), and the
+    discharged mass grows at ρ u π R0² — within 25 %, the material near the outlet being
+    looser than ρ0 (dilation) and the outlet edge node sliding on the wall."""
+    from silo_dolfinx.simulation import ramp_velocity, run
+
+    u0, T = 0.3, 0.2
+    sc = load_scene(SCENES / "hopper_ch3_ale.toml",
+                    ['fill.method="k0"', "store.duration=0.0", "discharge.duration=0.8", "geometry.element_size=0.05",
+                     'discharge.mode="controlled"', f"discharge.velocity={u0}", f"discharge.ramp_time={T}",
+                     "output.history_rate=100.0", "output.field_interval=100.0"])
+    out = shared_tmp / "controlled"
+    summary = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    o = _csv(out / "outlet.csv")
+    t = o["t"] - o["t"][0]
+    u = ramp_velocity(u0, T)
+    # the velocities are staggered (t − Δt/2): during the ramp they lag by at most
+    # max|u'| Δt/2 = π u0/(2T) · Δt/2 ≈ 1e-3 m/s here (Δt ≈ 5e-4 s); after it, exact
+    v = o["mean_outlet_velocity"]
+    assert np.allclose(v, [u(tt) for tt in t], rtol=0, atol=2e-3)
+    assert np.allclose(v[t > T + 0.01], u0, rtol=1e-9)
+    late = t > T + 0.1
+    rate = np.polyfit(t[late], o["discharged_mass"][late], 1)[0]
+    expect = sc.material.density * u0 * math.pi * sc.geometry.outlet_radius**2
+    assert abs(rate - expect) < 0.25 * expect, (rate, expect)
+    assert summary["stages"][-1]["mass_balance_error_max"] < 0.005

@@ -23,7 +23,6 @@
 
 # +
 import argparse
-import csv
 import json
 from pathlib import Path
 
@@ -32,7 +31,7 @@ from mpi4py import MPI
 
 import silo_dolfinx  # noqa: F401  (imports dolfinx_solver first where it exists)
 from silo_dolfinx import theory
-from silo_dolfinx.report import make_report
+from silo_dolfinx.report import make_report, read_csv
 from silo_dolfinx.scene import load_scene
 from silo_dolfinx.simulation import run
 from silo_dolfinx.solver import InstabilityError
@@ -48,12 +47,6 @@ args, _ = ap.parse_known_args()
 def say(*a):
     if comm.rank == 0:
         print(*a, flush=True)
-
-
-def read_csv(path):
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0] if k != "stage"}
 # -
 
 # ## Part 1: Lagrangian against ALE (Fig. 3-18)

@@ -31,7 +31,10 @@ import numpy as np
 from silo_dolfinx import analysis, theory
 
 
-def _read_csv(path: Path) -> dict[str, np.ndarray] | None:
+def read_csv(path: str | Path) -> dict[str, np.ndarray] | None:
+    """A results CSV as {column: array} (numbers as floats, empty cells NaN, text columns as
+    strings); None if the file is missing or has no data row."""
+    path = Path(path)
     if not path.is_file():
         return None
     with open(path) as f:
@@ -130,7 +133,7 @@ class Report:
             return
         for path in profiles:
             stage = path.stem.removeprefix("wall_profile_")
-            d = _read_csv(path)
+            d = read_csv(path)
             if d is None:
                 continue
             fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 6), sharey=True)
@@ -159,7 +162,7 @@ class Report:
                                      f"mean {np.nanmean(ratio[loaded]):.4f}, median {np.nanmedian(ratio[loaded]):.4f}"))
 
     def _history(self):
-        h = _read_csv(self.folder / "wall_history.csv")
+        h = read_csv(self.folder / "wall_history.csv")
         if h is None:
             self.missing.append("wall pressure histories (wall_history.csv)")
             return None
@@ -231,7 +234,7 @@ class Report:
     def outlet(self) -> None:
         import matplotlib.pyplot as plt
 
-        d = _read_csv(self.folder / "outlet.csv")
+        d = read_csv(self.folder / "outlet.csv")
         if d is None:
             self.missing.append("outlet flow (outlet.csv: written during discharge)")
             return
@@ -260,7 +263,7 @@ class Report:
         """Critical-element aspect ratio against the fall of the top surface (Fig. 3-18)."""
         import matplotlib.pyplot as plt
 
-        d = _read_csv(self.folder / "mesh_quality.csv")
+        d = read_csv(self.folder / "mesh_quality.csv")
         if d is None:
             return  # no discharge: nothing to show, nothing missing
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
@@ -310,7 +313,7 @@ class Report:
     def energy(self) -> None:
         import matplotlib.pyplot as plt
 
-        d = _read_csv(self.folder / "energy.csv")
+        d = read_csv(self.folder / "energy.csv")
         if d is None:
             self.missing.append("energy history (energy.csv)")
             return

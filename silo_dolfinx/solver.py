@@ -433,13 +433,13 @@ class ExplicitSolver:
         """This rank's kinetic + elastic energy as :meth:`global_energy` counts them (J)."""
         return sum(self._kinetic_elastic_local())
 
-    def after_remap(self, dV: np.ndarray | None = None, sig_increment: np.ndarray | None = None) -> None:
+    def after_remap(self, dV: np.ndarray, sig_increment: np.ndarray | None = None) -> None:
         """The mesh moved and ``sig``, ``state``, ``rho`` and ``v`` were remapped onto it:
         rebuild what depends on them (volumes, lumped mass, stable Δt, internal force).
 
-        ``dV``: the quadrature-point volumes on the new mesh if the caller has them (all
-        cells active); otherwise they are evaluated here. The cell dilatation rate of the
-        bulk viscosity keeps its value from the last Lagrangian step either way.
+        ``dV``: the quadrature-point volumes on the new mesh (the remap computed them; all
+        cells are active in a discharge). The cell dilatation rate of the bulk viscosity
+        keeps its value from the last Lagrangian step.
 
         ``sig_increment``: σ^{n+1} − σ^n of the last step at each point before the remap.
         The energy record is centred at t_{n+½}, the elastic part as the mean over σ^n and
@@ -451,14 +451,7 @@ class ExplicitSolver:
         for c in self.constraints:
             self.v[c.dofs, c.comp] = 0.0 if c.value is None else c.value(t_half)
         self._vvec.scatter_forward()
-        if dV is not None and dV.shape == self.dV.shape:
-            np.copyto(self.dV, dV)
-        else:
-            trd = self.trd_cell.copy()
-            self.forms.kinematics.eval(self.mesh, self._active, self.kin)
-            kernels.kinematics(self.kin, self.forms.weights, 0.0, num.bbar, self.deps, self.spin, self.dvol,
-                               self.dV, self.trd_cell)
-            np.copyto(self.trd_cell, trd)
+        np.copyto(self.dV, dV)
         kernels.cell_average(self.rho, self.dV, self.nq, self.rho_cell)
         self._update_geometry_cache()
         self.dt = num.time_step_scale * self.dt_crit

@@ -13,6 +13,7 @@ import pytest
 from conftest import SCENES
 from mpi4py import MPI
 
+from silo_dolfinx.report import read_csv
 from silo_dolfinx.scene import load_scene
 
 # ---------------------------------------------------------------------------- remap alone
@@ -209,14 +210,6 @@ def ale_run(tmp_path_factory):
     return out, summary
 
 
-def _csv(path):
-    import csv
-
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0] if k != "stage"}
-
-
 def test_discharge_mass_balance_and_energy(ale_run):
     """Initial mass = mass in the silo + discharged mass to 0.5 % (the issue's bound; the
     remap is conservative, so the measured error is round-off, ~1e-9); energy balance with
@@ -225,10 +218,10 @@ def test_discharge_mass_balance_and_energy(ale_run):
     d = summary["stages"][-1]
     assert summary["status"] == "completed"
     assert d["mass_balance_error_max"] < 0.005
-    o = _csv(out / "outlet.csv")
+    o = read_csv(out / "outlet.csv")
     assert o["discharged_mass"][-1] > 0.01 * d["mass_at_opening"]  # it does flow (measured 1.2 % in 1.5 s)
     assert np.all(np.diff(o["discharged_mass"]) >= -1e-9 * d["mass_at_opening"])
-    e = _csv(out / "energy.csv")
+    e = read_csv(out / "energy.csv")
     assert np.nanmax(e["relative_error"]) < 0.01
 
 
@@ -236,7 +229,7 @@ def test_discharge_keeps_every_cell_valid_and_the_boundary_rules(ale_run):
     """No inverted cell (scaled Jacobian > 0 throughout) and the aspect ratio within 1.5x its
     initial value (the issue's bound for ALE)."""
     out, summary = ale_run
-    q = _csv(out / "mesh_quality.csv")
+    q = read_csv(out / "mesh_quality.csv")
     assert q["min_scaled_jacobian"].min() > 0.0
     assert q["max_aspect_ratio"].max() < 1.5 * q["max_aspect_ratio"][0]
     assert q["top_drop"][-1] > 0.0  # the free surface came down
@@ -254,8 +247,8 @@ def test_lagrangian_mesh_degrades_where_ale_does_not(ale_run, shared_tmp, comm):
     except Exception:  # the Lagrangian run may die of its distortion: that is the point
         pass
     comm.barrier()
-    lag = _csv(out / "mesh_quality.csv")
-    ale = _csv(out_ale / "mesh_quality.csv")
+    lag = read_csv(out / "mesh_quality.csv")
+    ale = read_csv(out_ale / "mesh_quality.csv")
     t = min(lag["t"][-1], ale["t"][-1])
     a_lag = lag["max_aspect_ratio"][lag["t"] <= t].max() / lag["max_aspect_ratio"][0]
     a_ale = ale["max_aspect_ratio"][ale["t"] <= t].max() / ale["max_aspect_ratio"][0]
@@ -267,7 +260,7 @@ def test_tracers_follow_the_flow(ale_run):
     more than a cell size (the flow is downward everywhere); none leaves the half-plane; the
     discharged ones come from below the mean seeding height (the outlet drains the bottom)."""
     out, summary = ale_run
-    tr = _csv(out / "tracers.csv")
+    tr = read_csv(out / "tracers.csv")
     info = summary["stages"][-1]["tracers"]
     assert info["seeded"] == tr["id"].size == 10 * 12  # the scene's default 10 rows x 12
     assert info["inside"] + info["discharged"] == info["seeded"]
@@ -294,7 +287,7 @@ def test_controlled_discharge_follows_eq_3_14(shared_tmp, comm):
     out = shared_tmp / "controlled"
     summary = run(sc, out, comm, progress_every=1e9)
     comm.barrier()
-    o = _csv(out / "outlet.csv")
+    o = read_csv(out / "outlet.csv")
     t = o["t"] - o["t"][0]
     u = ramp_velocity(u0, T)
     # the velocities are staggered (t − Δt/2): during the ramp they lag by at most

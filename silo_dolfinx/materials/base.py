@@ -14,12 +14,13 @@ p = −tr σ/3 is positive in compression, as in the thesis.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 
 import numba
 import numpy as np
 
 
-class Material:
+class Material(ABC):
     name = "material"
     plastic = False
     state_fields: dict[str, int] = {}
@@ -35,8 +36,10 @@ class Material:
         """P-wave (constrained) modulus λ + 2μ = K + 4G/3 (Pa)."""
         return self.K + 4.0 * self.G / 3.0
 
+    @abstractmethod
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
-        raise NotImplementedError  # pragma: no cover - every concrete law implements it
+        """New stress and state from the rotated stress and the strain increment; returns the
+        plastic dissipation (J)."""
 
     def elastic_energy(self, sig: np.ndarray, dV: np.ndarray) -> float:
         """Stored elastic energy Σ ½ σ:C⁻¹:σ dV (J)."""

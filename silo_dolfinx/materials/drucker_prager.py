@@ -83,6 +83,15 @@ def return_map(s_trial, K, G, tanb, tanpsi, d, out):
     return dlam, True
 
 
+@numba.njit(cache=True, inline="always")
+def _trial_yield(t0, t1, t2, t3, tanb, d):
+    """Deviator (normal components), q, p and F of a stress given by its 4 components."""
+    m = (t0 + t1 + t2) * (1.0 / 3.0)
+    d0, d1, d2 = t0 - m, t1 - m, t2 - m
+    q = math.sqrt(1.5 * (d0 * d0 + d1 * d1 + d2 * d2) + 3.0 * t3 * t3)
+    return d0, d1, d2, q, -m, q - (-m) * tanb - d
+
+
 @numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
 def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps_new, dV):
     """The return map of :func:`return_map` over all points, written out in scalars (the
@@ -103,11 +112,7 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps
         t1 = sig[i, 1] + lam * tr + two_g * e1
         t2 = sig[i, 2] + lam * tr + two_g * e2
         t3 = sig[i, 3] + G * e3
-        m = (t0 + t1 + t2) * (1.0 / 3.0)
-        d0, d1, d2 = t0 - m, t1 - m, t2 - m
-        q = math.sqrt(1.5 * (d0 * d0 + d1 * d1 + d2 * d2) + 3.0 * t3 * t3)
-        p = -m
-        f = q - p * tanb - d
+        d0, d1, d2, q, p, f = _trial_yield(t0, t1, t2, t3, tanb, d)
         if f <= 0.0:
             sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = t0, t1, t2, t3
             eqps_new[i] = eqps[i]
@@ -126,11 +131,7 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps
                 t1 -= c_nc * (de1 - proj * s1)
                 t2 -= c_nc * (de2 - proj * s2)
                 t3 -= c_nc * (de3 - proj * s3)
-                m = (t0 + t1 + t2) * (1.0 / 3.0)
-                d0, d1, d2 = t0 - m, t1 - m, t2 - m
-                q = math.sqrt(1.5 * (d0 * d0 + d1 * d1 + d2 * d2) + 3.0 * t3 * t3)
-                p = -m
-                f = q - p * tanb - d
+                d0, d1, d2, q, p, f = _trial_yield(t0, t1, t2, t3, tanb, d)
                 if f <= 0.0:
                     s0n, s1n, s2n, s3n = t0, t1, t2, t3
                     sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0n, s1n, s2n, s3n

@@ -115,18 +115,26 @@ class AxisymmetricForms:
         (key,) = fem.pack_coefficients(form).keys()
         return form, key
 
-    def lumped_mass(self, density_q: np.ndarray, cells: np.ndarray, form=None) -> np.ndarray:
+    def lumped_mass(self, density_q: np.ndarray, cells: np.ndarray, form=None, out=None) -> np.ndarray:
         """Row-sum lumped mass per node (owned + ghost entries, ghosts accumulated).
 
         ``density_q`` is the density at the quadrature points, shape (len(cells), nq);
-        ``form``, if given, is :meth:`mass_form` of ``cells`` (built once by the caller).
-        Returns the array of the blocked vector (both components of a node carry its mass).
+        ``form``, if given, is :meth:`mass_form` of ``cells`` (built once by the caller);
+        ``out``, if given, a blocked (bs 2) ``la.Vector`` to assemble into (no allocation: the
+        ALE rebuild after every remap). Returns the array of the blocked vector (both
+        components of a node carry its mass): a copy, or ``out.array`` itself.
         """
         form, key = self.mass_form(cells) if form is None else form
-        b = fem.assemble_vector(form, coeffs={key: np.ascontiguousarray(density_q, dtype=np.float64)})
+        coeffs = {key: np.ascontiguousarray(density_q, dtype=np.float64)}
+        if out is None:
+            b = fem.assemble_vector(form, coeffs=coeffs)
+        else:
+            b = out
+            b.array[:] = 0.0
+            fem.assemble_vector(b.array, form, constants=np.zeros(0), coeffs=coeffs)
         b.scatter_reverse(_add())
         b.scatter_forward()
-        return b.array.copy()
+        return b.array if out is not None else b.array.copy()
 
     def surcharge_form(self, facet_tags, tag: int, pressure: fem.Constant) -> fem.Form:
         """Form for the nodal force of a normal pressure on the facets tagged ``tag``."""

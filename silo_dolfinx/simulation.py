@@ -448,6 +448,7 @@ def _advance(model: SiloModel, t_end: float, stage: str, recorder: Recorder, pro
         remaining = t_end - s.t
         if s.dt > remaining:
             s.dt = remaining
+        s.defer_force = ale is not None and ale.due_next()
         s.step()
         if ale is not None and ale.due():
             ale.apply()

@@ -153,6 +153,10 @@ class ExplicitSolver:
         self._fvec = la.vector(imap, 2)
         self._fvec_new = la.vector(imap, 2)
         self.f_int = self._fvec.array.reshape(-1, 2)
+        # a remap follows this step (set by the ALE driver): its rebuild assembles the internal
+        # force on the new mesh, so the step skips its own (stale until then: checked below)
+        self.defer_force = False
+        self._force_stale = False
         self._f_new = self._fvec_new.array.reshape(-1, 2)
         self.f_ext = np.zeros_like(self.v)
         self._f_prev = np.zeros_like(self.v)  # total force of the previous step (for work)
@@ -161,6 +165,8 @@ class ExplicitSolver:
         self.mass = np.zeros(self.n_nodes)  # true lumped mass
         self.m_inertial = np.zeros(self.n_nodes)
         self.minv = np.zeros(self.n_nodes)
+        self.active_nodes = np.zeros(self.n_nodes, bool)  # nodes carrying mass
+        self._mass_vec = None  # the lumped-mass vector, assembled in place
         self.x0 = mesh.geometry.x.copy()
         self._x_old = mesh.geometry.x.copy()
 
@@ -236,12 +242,17 @@ class ExplicitSolver:
 
     def rebuild_mass(self) -> None:
         """Lumped mass from the current densities (after activation or a remap)."""
-        m = self.forms.lumped_mass(self.rho.reshape(-1, self.nq), self._active, self._mass_form).reshape(-1, 2)[:, 0]
+        if self._mass_vec is None:
+            from dolfinx import la
+
+            self._mass_vec = la.vector(self.V.dofmap.index_map, 2)
+        m = self.forms.lumped_mass(self.rho.reshape(-1, self.nq), self._active, self._mass_form,
+                                   out=self._mass_vec).reshape(-1, 2)[:, 0]
         self.mass[:] = m
-        self.m_inertial[:] = m * self.numerics.mass_scaling
-        with np.errstate(divide="ignore"):
-            self.minv[:] = np.where(m > 0.0, 1.0 / np.where(m > 0.0, self.m_inertial, 1.0), 0.0)
-        self.active_nodes = m > 0.0
+        np.multiply(m, self.numerics.mass_scaling, out=self.m_inertial)
+        self.minv[:] = 0.0
+        np.divide(1.0, self.m_inertial, out=self.minv, where=m > 0.0)
+        np.greater(m, 0.0, out=self.active_nodes)
 
     def nodal_mass_of(self, cells: np.ndarray) -> np.ndarray:
         """Lumped mass of a subset of the active cells (e.g. one layer), per node."""
@@ -269,8 +280,13 @@ class ExplicitSolver:
 
     # ------------------------------------------------------------------ geometry caches
     def _update_geometry_cache(self) -> None:
-        x = self.mesh.geometry.x
+        """Corner nodes of the active cells (they change with activation only) and Δt."""
         self._active_nodes = np.ascontiguousarray(self.cell_nodes[self._active])
+        self._update_stable_dt()
+
+    def _update_stable_dt(self) -> None:
+        """Stable Δt of the current configuration (after activation or a remap moved the mesh)."""
+        x = self.mesh.geometry.x
         self.dt_crit = kernels.stable_dt(x, self._active_nodes, self.rho_cell, self.material.wave_modulus,
                                          self.trd_cell, *self.numerics.bulk_viscosity,
                                          self.numerics.mass_scaling, self.L_cell, self.c_cell, kernels.HOOP)
@@ -295,6 +311,7 @@ class ExplicitSolver:
         kernels.closure(self.sig, self.sig, self.deps, self.dV, self.trd_cell, self.rho, self.L_cell,
                         self.c_cell, 0.0, 0.0, self.numerics.bbar, self.nq, self.packed)
         self._assemble_internal_force(self._fvec)
+        self._force_stale = False
 
     # ------------------------------------------------------------------ the step
     def step(self) -> float:
@@ -314,6 +331,9 @@ class ExplicitSolver:
 
         # 1. predict
         clock(None)
+        if self._force_stale:  # a deferred internal force that no remap rebuilt
+            self._assemble_internal_force(self._fvec)
+            self._force_stale = False
         self._external_force(self.t)
         np.copyto(self._v_old, self.v)
         _predict(self.v, self.f_ext, self.f_int, self.minv, num.damping, dt_avg, self.a)
@@ -367,7 +387,8 @@ class ExplicitSolver:
         w_int, w_visc = kernels.closure(self._sig_rot, self._sig_new, self.deps, self.dV, self.trd_cell,
                                         self._rho_new, self.L_cell, self.c_cell, *num.bulk_viscosity, num.bbar,
                                         self.nq, self.packed)
-        self._assemble_internal_force(self._fvec_new)
+        if not self.defer_force:
+            self._assemble_internal_force(self._fvec_new)
         clock("assembly")
 
         # energy: forces of step n acting over ½(Δx^{n−½} + Δx^{n+½})
@@ -397,6 +418,7 @@ class ExplicitSolver:
         self.dt_prev = dt
         self.dt_crit = dt_crit
         self.dt = num.time_step_scale * dt_crit
+        self._force_stale = self.defer_force
         clock("update")
         return True
 
@@ -422,12 +444,10 @@ class ExplicitSolver:
         return g
 
     def _kinetic_elastic_local(self) -> tuple[float, float]:
-        n = self.n_owned
-        ke = 0.5 * float(np.sum(self.m_inertial[:n, None] * self.v[:n] ** 2))
-        el = self.material.elastic_energy(self.sig, self.dV)
+        ke = _kinetic(self.m_inertial, self.v, self.n_owned)
         if self.steps > 0:  # the previous stress is still in the double buffer
-            el = 0.5 * (el + self.material.elastic_energy(self._sig_new, self.dV))
-        return ke, el
+            return ke, self.material.elastic_energy_mean(self.sig, self._sig_new, self.dV)
+        return ke, self.material.elastic_energy(self.sig, self.dV)
 
     def mechanical_energy_local(self) -> float:
         """This rank's kinetic + elastic energy as :meth:`global_energy` counts them (J)."""
@@ -453,12 +473,13 @@ class ExplicitSolver:
         self._vvec.scatter_forward()
         np.copyto(self.dV, dV)
         kernels.cell_average(self.rho, self.dV, self.nq, self.rho_cell)
-        self._update_geometry_cache()
+        self._update_stable_dt()
         self.dt = num.time_step_scale * self.dt_crit
         self.rebuild_mass()
         kernels.closure(self.sig, self.sig, self.deps, self.dV, self.trd_cell, self.rho, self.L_cell, self.c_cell,
                         *num.bulk_viscosity, num.bbar, self.nq, self.packed)
         self._assemble_internal_force(self._fvec)
+        self._force_stale = False
         if sig_increment is None:
             np.copyto(self._sig_new, self.sig)  # the "previous" stress of the energy average
         else:
@@ -474,9 +495,7 @@ class ExplicitSolver:
         self.add_gravity()
 
     def kinetic_energy_now(self) -> float:
-        n = self.n_owned
-        ke = 0.5 * float(np.sum(self.m_inertial[:n, None] * self.v[:n] ** 2))
-        return self.comm.allreduce(ke, op=MPI.SUM)
+        return self.comm.allreduce(_kinetic(self.m_inertial, self.v, self.n_owned), op=MPI.SUM)
 
     def check_finite(self) -> None:
         ok = bool(np.all(np.isfinite(self.v)) and np.all(np.isfinite(self.sig)))
@@ -530,6 +549,14 @@ def _predict(v, f_ext, f_int, minv, alpha, dt_avg, a):
         for k in range(2):
             a[i, k] = minv[i] * (f_ext[i, k] - f_int[i, k]) - alpha * v[i, k] * (minv[i] > 0.0)
             v[i, k] += dt_avg * a[i, k]
+
+
+@numba.njit(cache=True)
+def _kinetic(m, v, n):
+    e = 0.0
+    for i in range(n):
+        e += m[i] * (v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1])
+    return 0.5 * e
 
 
 @numba.njit(cache=True)

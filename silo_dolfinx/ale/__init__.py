@@ -89,6 +89,10 @@ class ALE:
     def due(self) -> bool:
         return (self.solver.steps - self._steps0) % self.frequency == 0
 
+    def due_next(self) -> bool:
+        """Whether the next step ends with a remap (its internal force can then be skipped)."""
+        return (self.solver.steps + 1 - self._steps0) % self.frequency == 0
+
     # ------------------------------------------------------------------ the split step
     def apply(self) -> RemapReport:
         """Smooth the mesh and remap the state onto it (between two solver steps)."""

@@ -126,11 +126,14 @@ class Smoother:
         self.backoffs = 0
 
     # ------------------------------------------------------------------ helpers
-    def _global_value(self, local: np.ndarray) -> float:
-        """The one value held by whichever rank owns it (NaN if none does)."""
-        v = float(local[0]) if local.size else -np.inf
-        g = self.comm.allreduce(v, op=MPI.MAX)
-        return g if np.isfinite(g) else float("nan")
+    def _global_value(self, *local: np.ndarray) -> float | tuple[float, ...]:
+        """The one value held by whichever rank owns it (NaN if none does); several
+        arrays at once in one reduction."""
+        v = np.array([float(a[0]) if a.size else -np.inf for a in local])
+        g = np.empty_like(v)
+        self.comm.Allreduce(v, g, op=MPI.MAX)
+        g = tuple(float(x) if np.isfinite(x) else float("nan") for x in g)
+        return g[0] if len(g) == 1 else g
 
     def _top_polyline(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Global indices and positions of all top nodes in order from the axis to the wall
@@ -140,14 +143,20 @@ class Smoother:
         allp = allp[np.argsort(allp[:, 1], kind="stable")]
         return allp[:, 0].astype(np.int64), np.ascontiguousarray(allp[:, 2:4])
 
-    def _residuals(self, x: np.ndarray) -> np.ndarray:
-        """Per node: (L(x) − x, A(x) − x) for owned nodes (ghost rows zero)."""
+    def _accumulated(self, x: np.ndarray) -> np.ndarray:
+        """Per owned node, summed over its cells on all ranks: (Σ edge midpoints (2), their
+        count, Σ area × centroid (2), Σ area) — the sums of eqs. 3-4 and 3-5."""
         from dolfinx import la
 
         acc = self._acc.array.reshape(-1, 6)
         acc[:] = 0.0
         _accumulate(x, self.cn, self.orient, self.n_cells, acc)
         self._acc.scatter_reverse(la.InsertMode.add)
+        return acc
+
+    def _residuals(self, x: np.ndarray) -> np.ndarray:
+        """Per node: (L(x) − x, A(x) − x) for owned nodes (ghost rows zero)."""
+        acc = self._accumulated(x)
         out = np.zeros((self.n_nodes, 4))
         nn = self.nn
         w = np.where(acc[:nn, 2] > 0, acc[:nn, 2], 1.0)
@@ -163,6 +172,10 @@ class Smoother:
         self._pos.scatter_forward()
         x[self.nn:] = p[self.nn:]
 
+    def min_scaled_jacobian(self, x: np.ndarray) -> float:
+        """Global min scaled Jacobian of the owned cells at ``x`` (one reduction)."""
+        return self.comm.allreduce(worst_cells(x, self.cn, self.orient, self.n_cells)[0], op=MPI.MIN)
+
     def quality(self, x: np.ndarray) -> tuple[float, float]:
         """Global (min scaled Jacobian, max aspect ratio) of the owned cells at ``x``."""
         s, a = worst_cells(x, self.cn, self.orient, self.n_cells)
@@ -175,8 +188,9 @@ class Smoother:
         x[self.outlet] = self.X[self.outlet]
         x[self.wall_corner] = xL[self.wall_corner]
         x[self.axis_corner] = xL[self.axis_corner]
+        # the two top corners: the wall one's arclength, the axis one's height
+        s_top, z_top = self._global_value(self.wall.project(xL[self.wall_corner]).s, xL[self.axis_corner, 1])
         # wall: Eulerian below the highest anchor under the top corner, stretched above it
-        s_top = self._global_value(self.wall.project(xL[self.wall_corner]).s)
         if self.wall_nodes.size:
             below = self.anchors[self.anchors < min(s_top, self.S0_top) - 1e-9 * self.wall.length]
             s_c = float(below.max()) if below.size else 0.0
@@ -187,7 +201,6 @@ class Smoother:
             gap = np.maximum(proj.distance, 0.0)  # the material's normal offset (a gap, never inside)
             x[self.wall_nodes] = p - gap[:, None] * n
         # axis: heights spread between the outlet (z = 0) and the top node on the axis
-        z_top = self._global_value(xL[self.axis_corner, 1])
         if self.axis_nodes.size:
             x[self.axis_nodes, 0] = 0.0
             x[self.axis_nodes, 1] = self.Z0 * (z_top / self.Z0_top)
@@ -208,16 +221,15 @@ class Smoother:
         for _ in range(self.sweeps):
             if self.wL == 0.0 and self.wA == 0.0:
                 break
-            r = self._residuals(x)
-            i = self.interior
-            x[i] += self.wL * (r[i, 0:2] - self.r0[i, 0:2]) + self.wA * (r[i, 2:4] - self.r0[i, 2:4])
+            acc = self._accumulated(x)
+            _relax(x, acc, self.r0, self.interior, self.wL, self.wA)
             self._sync(x)
         # never worse than the floor, or than the Lagrangian mesh if that is already below it
         theta = 1.0
         xs = x
-        q = self.quality(xs)[0]
+        q = self.min_scaled_jacobian(xs)
         floor = MIN_SCALED_JACOBIAN if q >= MIN_SCALED_JACOBIAN else min(MIN_SCALED_JACOBIAN,
-                                                                         0.999 * self.quality(xL)[0])
+                                                                         0.999 * self.min_scaled_jacobian(xL))
         while q < floor:
             self.backoffs += 1
             theta *= 0.5
@@ -225,8 +237,8 @@ class Smoother:
                 xs = xL.copy()
                 break
             xs = xL + theta * (x - xL)
-            q = self.quality(xs)[0]
-        self.x_prev = xs.copy()
+            q = self.min_scaled_jacobian(xs)
+        np.copyto(self.x_prev, xs)
         return xs
 
 
@@ -257,6 +269,18 @@ def _accumulate(x, cn, orient, n_cells, acc):
             acc[n, 3] += area * cr
             acc[n, 4] += area * cz
             acc[n, 5] += area
+
+
+@numba.njit(cache=True)
+def _relax(x, acc, r0, nodes, wL, wA):
+    """One Jacobi sweep on ``nodes``: x += w_L (L(x) − x − r0_L) + w_A (A(x) − x − r0_A), with
+    L, A the Laplacian and mid-area averages from the accumulated sums (eqs. 3-4, 3-5)."""
+    for i in nodes:
+        for k in range(2):
+            xi = x[i, k]
+            lap = acc[i, k] / acc[i, 2] - xi if acc[i, 2] > 0.0 else 0.0
+            mid = acc[i, 3 + k] / acc[i, 5] - xi if acc[i, 5] > 0.0 else 0.0
+            x[i, k] = xi + wL * (lap - r0[i, k]) + wA * (mid - r0[i, 2 + k])
 
 
 def _arclength(pts: np.ndarray) -> np.ndarray:

@@ -45,6 +45,11 @@ class Material(ABC):
         """Stored elastic energy Σ ½ σ:C⁻¹:σ dV (J)."""
         return float(_elastic_energy(sig, dV, self.K, self.G))
 
+    def elastic_energy_mean(self, sig: np.ndarray, sig_prev: np.ndarray, dV: np.ndarray) -> float:
+        """½ (elastic energy of ``sig`` + of ``sig_prev``) in one pass (J): the energy record's
+        value at the half step."""
+        return float(_elastic_energy_mean(sig, sig_prev, dV, self.K, self.G))
+
     def elastic_energy_density(self, sig: np.ndarray) -> np.ndarray:
         """½ σ:C⁻¹:σ at every point (J/m³)."""
         out = np.empty(sig.shape[0])
@@ -65,6 +70,14 @@ def _elastic_energy(sig, dV, K, G):
     for i in range(sig.shape[0]):
         e += dV[i] * _density(sig[i], K, G)
     return e
+
+
+@numba.njit(cache=True)
+def _elastic_energy_mean(sig, sig_prev, dV, K, G):
+    e = 0.0
+    for i in range(sig.shape[0]):
+        e += dV[i] * (_density(sig[i], K, G) + _density(sig_prev[i], K, G))
+    return 0.5 * e
 
 
 @numba.njit(cache=True)

@@ -300,3 +300,30 @@ def test_controlled_discharge_follows_eq_3_14(shared_tmp, comm):
     expect = sc.material.density * u0 * math.pi * sc.geometry.outlet_radius**2
     assert abs(rate - expect) < 0.25 * expect, (rate, expect)
     assert summary["stages"][-1]["mass_balance_error_max"] < 0.005
+
+
+def test_smooth_hopper_discharges_at_the_hourglass_rate(shared_tmp, comm):
+    """Free discharge of the ch. 4 hopper with a smooth wall and no dilation against the
+    hourglass theory (theory.hourglass_discharge, 2.85 m/s mean over the outlet for β = 30°):
+    the mean outlet velocity over 1-2 s after opening within 20 %. Measured −13 % on this
+    0.03 m mesh and −9 % on the scene's 0.0155 m mesh (the gap is the theory's radial stress
+    field: uniform over spheres, top boundary a sphere); a wall with friction (the thesis'
+    μ 0.267) drops it to ~1.7 m/s, which the smooth-wall theory does not cover."""
+    from silo_dolfinx import theory
+    from silo_dolfinx.simulation import run
+
+    sc = load_scene(SCENES / "hopper_ch4.toml",
+                    ['fill.method="k0"', "store.duration=0.0", "discharge.duration=2.0", "geometry.element_size=0.03",
+                     'wall.friction="none"', "material.dilation_angle=0.0", "ale.tracer_rows=0",
+                     "output.history_rate=50.0", "output.field_interval=100.0"])
+    out = shared_tmp / "hourglass"
+    summary = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    assert summary["status"] == "completed"
+    o = read_csv(out / "outlet.csv")
+    t = o["t"] - o["t"][0]
+    v = o["mean_outlet_velocity"][(t >= 1.0) & (t <= 2.0)].mean()
+    g = sc.geometry
+    alpha = math.degrees(math.atan((g.top_radius - g.outlet_radius) / g.height))
+    expect = theory.hourglass_discharge(sc.material.friction_angle, alpha, g.outlet_radius, g.height)
+    assert abs(v / expect["mean_outlet_velocity"] - 1.0) < 0.20, (v, expect["mean_outlet_velocity"])

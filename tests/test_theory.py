@@ -111,6 +111,36 @@ def test_dynamic_friction_eq_7_1():
     assert round(mu[1], 2) == 0.62 and round(mu[2], 2) == 0.55
 
 
+def test_hourglass_discharge_solves_its_radial_momentum_equation():
+    """Hourglass theory, independently: integrate dσ/dr − (n/r)σ = ρ(2A²/r⁵ − g) from the
+    outlet sphere (σ = 0) and shoot A so that σ also vanishes on the top sphere; the speed
+    A/r0² must be the closed form's u0 (to the integrator's tolerance). Then the ch. 4
+    numbers: k = 1.939 for β = 30° and a 2.85 m/s mean outlet velocity."""
+    from scipy.optimize import brentq
+
+    beta, alpha, R0, H, rho, g = 30.0, 22.62, 0.1, 2.64, 1000.0, 9.81
+    d = theory.hourglass_discharge(beta, alpha, R0, H, rho, g)
+    n = d["n"]
+    a = math.radians(alpha)
+    r0, r1 = R0 / math.sin(a), H + R0 / math.tan(a)
+
+    def top_stress(A):
+        sol = solve_ivp(lambda r, s: [n / r * s[0] + rho * (2 * A * A / r**5 - g)], (r0, r1), [0.0],
+                        rtol=1e-11, atol=1e-9)
+        return sol.y[0, -1]
+
+    A = brentq(top_stress, 0.05, 1.0, xtol=1e-13)
+    assert abs(A / r0**2 - d["u0"]) < 1e-6 * d["u0"]
+    assert abs(d["k"] - 1.9386) < 1e-4
+    assert abs(d["mean_outlet_velocity"] - 2.8496) < 1e-3
+    # the flux through the sphere cap is the flux through the flat disc
+    assert abs(d["mass_flow"] - rho * d["mean_outlet_velocity"] * math.pi * R0**2) < 1e-9 * d["mass_flow"]
+    # steeper hoppers (as eq. 4-8's factor says) and weaker solids discharge faster
+    assert theory.hourglass_discharge(beta, 30.0, R0, H, rho)["mass_flow"] < d["mass_flow"] < \
+        theory.hourglass_discharge(beta, 15.0, R0, H, rho)["mass_flow"]
+    assert theory.hourglass_discharge(35.0, alpha, R0, H)["u0"] < d["u0"]
+
+
 @pytest.mark.parametrize("call", [
     lambda: theory.beverloo(-1.0, 0.2),
     lambda: theory.beverloo(1000.0, 0.01, particle_size=0.01),
@@ -121,6 +151,7 @@ def test_dynamic_friction_eq_7_1():
     lambda: theory.janssen(-1.0, 0.35, 0.6, 0.4, 1e4),
     lambda: theory.dynamic_friction(0.1, 0.3, 0.6, 2.0),
     lambda: theory.thick_cylinder_limit_pressure(1e4, 1.0, 0.5),
+    lambda: theory.hourglass_discharge(60.0, 22.6, 0.1, 2.64),  # tan β ≥ 1.5
 ])
 def test_inputs_outside_the_validity_range_are_refused(call):
     with pytest.raises(ValueError):

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from silo_dolfinx import analysis, theory
+from silo_dolfinx.geometry.shapes import hopper_half_angle
 
 
 def read_csv(path: str | Path) -> dict[str, np.ndarray] | None:
@@ -100,7 +101,7 @@ class Report:
                 ph, _, _ = theory.janssen(np.clip(hf - z, 0, None), R, mu, K, gamma, sc.loads.top_surcharge)
                 out.append((label, ph))
         if g.shape == "hopper" and mu > 0:
-            alpha = math.degrees(math.atan((g.top_radius - g.outlet_radius) / g.height))
+            alpha = hopper_half_angle(g)
             zz = np.clip(z, 0, g.height)
             if phi and math.atan(mu) < math.radians(phi):
                 kappa = 1 if stage == "discharge" else -1

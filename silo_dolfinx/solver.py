@@ -166,7 +166,7 @@ class ExplicitSolver:
         self.m_inertial = np.zeros(self.n_nodes)
         self.minv = np.zeros(self.n_nodes)
         self.active_nodes = np.zeros(self.n_nodes, bool)  # nodes carrying mass
-        self._mass_vec = None  # the lumped-mass vector, assembled in place
+        self._mass_vec = la.vector(imap, 2)  # the lumped mass, assembled in place
         self.x0 = mesh.geometry.x.copy()
         self._x_old = mesh.geometry.x.copy()
 
@@ -242,10 +242,6 @@ class ExplicitSolver:
 
     def rebuild_mass(self) -> None:
         """Lumped mass from the current densities (after activation or a remap)."""
-        if self._mass_vec is None:
-            from dolfinx import la
-
-            self._mass_vec = la.vector(self.V.dofmap.index_map, 2)
         m = self.forms.lumped_mass(self.rho.reshape(-1, self.nq), self._active, self._mass_form,
                                    out=self._mass_vec).reshape(-1, 2)[:, 0]
         self.mass[:] = m

@@ -10,6 +10,7 @@ from mpi4py import MPI
 
 from silo_dolfinx import analysis, theory
 from silo_dolfinx.contact import COULOMB, VELOCITY, FrictionLaw, WallContact
+from silo_dolfinx.geometry import hopper_half_angle
 from silo_dolfinx.geometry.mesher import mesh_scene
 from silo_dolfinx.geometry.wall import Segment, Wall
 from silo_dolfinx.materials import Elastic
@@ -163,7 +164,7 @@ def test_hopper_filling_pressures(shared_tmp, comm):
     comm.barrier()
     w = read_profile(out / "wall_profile_store.csv")
     g = sc.geometry
-    alpha = np.degrees(np.arctan((g.top_radius - g.outlet_radius) / g.height))
+    alpha = hopper_half_angle(g)
     en, _ = theory.en1991_hopper(w["z"], sc.wall.mu, alpha, g.outlet_radius, g.height,
                                  sc.material.density * sc.loads.gravity)
     mid = (w["z"] > 0.1 * g.height) & (w["z"] < 0.9 * g.height)

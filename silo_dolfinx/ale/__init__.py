@@ -123,7 +123,7 @@ class ALE:
         qp_volumes(xS, self.cn_tensor, self._points, self._weights, no, self._dV)
         redistribute(Q, nq, self._dV, means, lo, hi)
         self._scatter(Q)
-        s.rho[:] = np.repeat(rho, nq)
+        s.rho.reshape(-1, nq)[:] = rho[:, None]
         s.v[s.node_dof] = v
         s.after_remap(self._dV, self._dsig if s.steps > 0 else None)
         self.model.after_remap()

@@ -103,11 +103,12 @@ class Smoother:
 
         # wall: initial arclengths; anchors (outlet edge and wall corners)
         self.S0 = wall.project(self.X[self.wall_nodes]).s
-        self.S0_top = self._global_value(wall.project(self.X[self.wall_corner]).s)
         self.anchors = np.concatenate([[0.0], wall.corner_s()])
-        # axis: initial heights and the top node's
+        # axis: initial heights
         self.Z0 = self.X[self.axis_nodes, 1].copy()
-        self.Z0_top = self._global_value(self.X[self.axis_corner, 1])
+        # the top corners: the wall one's arclength, the axis one's height
+        self.S0_top, self.Z0_top = self._global_value(wall.project(self.X[self.wall_corner]).s,
+                                                      self.X[self.axis_corner, 1])
         # top: every owned top node's initial arclength fraction along the top
         gidx = nmap.local_to_global(np.arange(self.n_nodes, dtype=np.int32))
         self._top_all = np.nonzero(own & ((cls == TOP) | (cls == TOP_CORNER)) & on["top"])[0]
@@ -121,19 +122,18 @@ class Smoother:
         # graded objective: the reference mesh's own residuals are subtracted
         self.r0 = np.zeros((self.n_nodes, 4))
         if objective == "graded":
-            self.r0[:] = self._residuals(self.X)
+            _residuals(self.X, self._accumulated(self.X), self.interior, self.r0)
         self.x_prev = self.X.copy()
         self.backoffs = 0
 
     # ------------------------------------------------------------------ helpers
-    def _global_value(self, *local: np.ndarray) -> float | tuple[float, ...]:
-        """The one value held by whichever rank owns it (NaN if none does); several
-        arrays at once in one reduction."""
+    def _global_value(self, *local: np.ndarray) -> tuple[float, ...]:
+        """For each array: the one value held by whichever rank owns it (NaN if none does),
+        all in one reduction."""
         v = np.array([float(a[0]) if a.size else -np.inf for a in local])
         g = np.empty_like(v)
         self.comm.Allreduce(v, g, op=MPI.MAX)
-        g = tuple(float(x) if np.isfinite(x) else float("nan") for x in g)
-        return g[0] if len(g) == 1 else g
+        return tuple(float(x) if np.isfinite(x) else float("nan") for x in g)
 
     def _top_polyline(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Global indices and positions of all top nodes in order from the axis to the wall
@@ -153,17 +153,6 @@ class Smoother:
         _accumulate(x, self.cn, self.orient, self.n_cells, acc)
         self._acc.scatter_reverse(la.InsertMode.add)
         return acc
-
-    def _residuals(self, x: np.ndarray) -> np.ndarray:
-        """Per node: (L(x) − x, A(x) − x) for owned nodes (ghost rows zero)."""
-        acc = self._accumulated(x)
-        out = np.zeros((self.n_nodes, 4))
-        nn = self.nn
-        w = np.where(acc[:nn, 2] > 0, acc[:nn, 2], 1.0)
-        a = np.where(acc[:nn, 5] > 0, acc[:nn, 5], 1.0)
-        out[:nn, 0:2] = acc[:nn, 0:2] / w[:, None] - x[:nn]
-        out[:nn, 2:4] = acc[:nn, 3:5] / a[:, None] - x[:nn]
-        return out
 
     def _sync(self, x: np.ndarray) -> None:
         """Ghost rows of ``x`` from their owners."""
@@ -271,16 +260,30 @@ def _accumulate(x, cn, orient, n_cells, acc):
             acc[n, 5] += area
 
 
+@numba.njit(cache=True, inline="always")
+def _residual(x, acc, i, k):
+    """(L(x) − x, A(x) − x) of node i, coordinate k, from the accumulated sums: the
+    Laplacian (eq. 3-4) and mid-area (eq. 3-5) averages minus the node."""
+    lap = acc[i, k] / acc[i, 2] - x[i, k] if acc[i, 2] > 0.0 else 0.0
+    mid = acc[i, 3 + k] / acc[i, 5] - x[i, k] if acc[i, 5] > 0.0 else 0.0
+    return lap, mid
+
+
 @numba.njit(cache=True)
-def _relax(x, acc, r0, nodes, wL, wA):
-    """One Jacobi sweep on ``nodes``: x += w_L (L(x) − x − r0_L) + w_A (A(x) − x − r0_A), with
-    L, A the Laplacian and mid-area averages from the accumulated sums (eqs. 3-4, 3-5)."""
+def _residuals(x, acc, nodes, out):
+    """out[i] = (L − x, A − x) (r, z each) of ``nodes``: the reference residuals r0."""
     for i in nodes:
         for k in range(2):
-            xi = x[i, k]
-            lap = acc[i, k] / acc[i, 2] - xi if acc[i, 2] > 0.0 else 0.0
-            mid = acc[i, 3 + k] / acc[i, 5] - xi if acc[i, 5] > 0.0 else 0.0
-            x[i, k] = xi + wL * (lap - r0[i, k]) + wA * (mid - r0[i, 2 + k])
+            out[i, k], out[i, 2 + k] = _residual(x, acc, i, k)
+
+
+@numba.njit(cache=True)
+def _relax(x, acc, r0, nodes, wL, wA):
+    """One Jacobi sweep on ``nodes``: x += w_L (L(x) − x − r0_L) + w_A (A(x) − x − r0_A)."""
+    for i in nodes:
+        for k in range(2):
+            lap, mid = _residual(x, acc, i, k)
+            x[i, k] += wL * (lap - r0[i, k]) + wA * (mid - r0[i, 2 + k])
 
 
 def _arclength(pts: np.ndarray) -> np.ndarray:

@@ -135,6 +135,11 @@ def _hopper(g):
     return [Segment((R0, 0.0), (Rt, H))], 0, np.zeros((0, 2))
 
 
+def hopper_half_angle(g) -> float:
+    """Apex half-angle α from the vertical (deg) of a ``shape = "hopper"`` [geometry] section."""
+    return math.degrees(math.atan((g["top_radius"] - g["outlet_radius"]) / g["height"]))
+
+
 def _flat_bottom(g):
     R, H, R0 = g["radius"], g["height"], g["outlet_radius"]
     if R0 >= R:

@@ -71,6 +71,9 @@ class AxisymmetricForms:
     def __init__(self, mesh):
         self.mesh = mesh
         self.V = fem.functionspace(mesh, ("Lagrange", 1, (2,)))
+        self.S = fem.functionspace(mesh, ("Lagrange", 1))  # scalar nodal quantities (lumped mass)
+        if not np.array_equal(self.S.dofmap.list, self.V.dofmap.list):  # DOLFINx numbers both alike
+            raise RuntimeError("the scalar and vector P1 dofmaps differ: nodal masses would be misplaced")
         cell = mesh.basix_cell()
         self.points, self.weights = basix.make_quadrature(cell, QUADRATURE_DEGREE)
         self.nq = self.points.shape[0]
@@ -108,10 +111,12 @@ class AxisymmetricForms:
         return form, key
 
     def mass_form(self, cells: np.ndarray) -> tuple[fem.Form, tuple]:
-        """Form for the row-sum lumped mass ∫ ρ N_a 2π r dx over ``cells`` (both components of
-        a node carry its mass), with ρ at the quadrature points supplied pre-packed."""
-        form = fem.form(ufl.inner(self._w, ufl.as_vector([1.0, 1.0])) * self._density * TWO_PI * self.r
-                        * self._dx(cells))
+        """Form for the row-sum lumped mass ∫ ρ N_a 2π r dx over ``cells`` on the scalar P1
+        space (same node numbering as the velocity's blocks), with ρ at the quadrature points
+        supplied pre-packed. Compiled like the internal force: the ALE rebuild assembles it
+        after every remap."""
+        form = fem.form(ufl.TestFunction(self.S) * self._density * TWO_PI * self.r * self._dx(cells),
+                        jit_options=jit_options())
         (key,) = fem.pack_coefficients(form).keys()
         return form, key
 
@@ -120,9 +125,9 @@ class AxisymmetricForms:
 
         ``density_q`` is the density at the quadrature points, shape (len(cells), nq);
         ``form``, if given, is :meth:`mass_form` of ``cells`` (built once by the caller);
-        ``out``, if given, a blocked (bs 2) ``la.Vector`` to assemble into (no allocation: the
-        ALE rebuild after every remap). Returns the array of the blocked vector (both
-        components of a node carry its mass): a copy, or ``out.array`` itself.
+        ``out``, if given, a scalar ``la.Vector`` on the nodes to assemble into (no allocation:
+        the ALE rebuild after every remap). Returns the nodal masses: a copy, or ``out.array``
+        itself.
         """
         form, key = self.mass_form(cells) if form is None else form
         coeffs = {key: np.ascontiguousarray(density_q, dtype=np.float64)}

@@ -31,6 +31,7 @@ dissipates some (upwinding: ``remap``); both are booked so that B stays meaningf
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -166,7 +167,7 @@ class ExplicitSolver:
         self.m_inertial = np.zeros(self.n_nodes)
         self.minv = np.zeros(self.n_nodes)
         self.active_nodes = np.zeros(self.n_nodes, bool)  # nodes carrying mass
-        self._mass_vec = la.vector(imap, 2)  # the lumped mass, assembled in place
+        self._mass_vec = la.vector(imap, 1)  # the lumped mass, assembled in place
         self.x0 = mesh.geometry.x.copy()
         self._x_old = mesh.geometry.x.copy()
 
@@ -243,7 +244,7 @@ class ExplicitSolver:
     def rebuild_mass(self) -> None:
         """Lumped mass from the current densities (after activation or a remap)."""
         m = self.forms.lumped_mass(self.rho.reshape(-1, self.nq), self._active, self._mass_form,
-                                   out=self._mass_vec).reshape(-1, 2)[:, 0]
+                                   out=self._mass_vec)
         self.mass[:] = m
         np.multiply(m, self.numerics.mass_scaling, out=self.m_inertial)
         self.minv[:] = 0.0
@@ -254,7 +255,7 @@ class ExplicitSolver:
         """Lumped mass of a subset of the active cells (e.g. one layer), per node."""
         pos = np.searchsorted(self._active, cells)
         rho = self.rho.reshape(-1, self.nq)[pos]
-        return self.forms.lumped_mass(rho, cells).reshape(-1, 2)[:, 0]
+        return self.forms.lumped_mass(rho, cells)
 
     # ------------------------------------------------------------------ loads
     def add_gravity(self, cells: np.ndarray | None = None, amplitude: Callable[[float], float] = lambda t: 1.0):
@@ -449,7 +450,7 @@ class ExplicitSolver:
         """This rank's kinetic + elastic energy as :meth:`global_energy` counts them (J)."""
         return sum(self._kinetic_elastic_local())
 
-    def after_remap(self, dV: np.ndarray, sig_increment: np.ndarray | None = None) -> None:
+    def after_remap(self, dV: np.ndarray, sig_increment: np.ndarray | None = None) -> float:
         """The mesh moved and ``sig``, ``state``, ``rho`` and ``v`` were remapped onto it:
         rebuild what depends on them (volumes, lumped mass, stable Δt, internal force).
 
@@ -461,7 +462,11 @@ class ExplicitSolver:
         The energy record is centred at t_{n+½}, the elastic part as the mean over σ^n and
         σ^{n+1}; the remapped σ^n is taken as the remapped σ^{n+1} minus that increment, so
         the first step after a remap books consistently (without it, half a step of stress
-        power per remap shows up as balance error)."""
+        power per remap shows up as balance error).
+
+        Returns the seconds spent assembling an internal force that the last step deferred
+        to this rebuild (:attr:`defer_force`): Lagrangian work, done here on the new mesh
+        instead of on the old one (0 if nothing was deferred)."""
         num = self.numerics
         t_half = self.t - 0.5 * self.dt_prev  # where the staggered velocity lives
         for c in self.constraints:
@@ -474,13 +479,16 @@ class ExplicitSolver:
         self.rebuild_mass()
         kernels.closure(self.sig, self.sig, self.deps, self.dV, self.trd_cell, self.rho, self.L_cell, self.c_cell,
                         *num.bulk_viscosity, num.bbar, self.nq, self.packed)
+        t0 = time.perf_counter()
         self._assemble_internal_force(self._fvec)
+        deferred = time.perf_counter() - t0 if self._force_stale else 0.0
         self._force_stale = False
         if sig_increment is None:
             np.copyto(self._sig_new, self.sig)  # the "previous" stress of the energy average
         else:
             np.subtract(self.sig, sig_increment, out=self._sig_new)
         np.multiply(self.v, self.dt_prev, out=self._dx_prev)
+        return deferred
 
     def replace_gravity(self) -> None:
         """One full-gravity load on the current lumped mass in place of all gravity loads
@@ -528,8 +536,6 @@ class _Clock:
     """clock(None) starts; clock(name) adds the time since the last call to timings[name]."""
 
     def __init__(self, timings):
-        import time
-
         self.timings, self._now, self._t = timings, time.perf_counter, 0.0
 
     def __call__(self, phase):
@@ -547,7 +553,7 @@ def _predict(v, f_ext, f_int, minv, alpha, dt_avg, a):
             v[i, k] += dt_avg * a[i, k]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=kernels.FAST)
 def _kinetic(m, v, n):
     e = 0.0
     for i in range(n):

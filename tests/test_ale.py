@@ -188,6 +188,53 @@ def test_zero_motion_is_the_identity(comm):
     assert np.allclose(v, [0.1, -0.2], rtol=1e-12, atol=0)
 
 
+# ---------------------------------------------------------------------------- smoothing alone
+
+def _smoothed_hopper(comm):
+    """The ch. 3 hopper after a Lagrangian motion (material sagging towards the outlet, the
+    same function of position on every rank), smoothed once: (sm, wall, X, xL, xs, smoother)."""
+    from silo_dolfinx.ale import Smoother
+    from silo_dolfinx.simulation import SiloModel, mesh_scene
+
+    sc = _ch3_scene(True, 0.1, h=0.08)
+    sm = mesh_scene(sc, comm)
+    wall = SiloModel(sc, sm).contact_wall_open
+    smoother = Smoother(sm, wall)
+    X = np.ascontiguousarray(sm.mesh.geometry.x[:, :2])
+    r, z = X[:, 0], X[:, 1]
+    # a few steps' worth (the top drops by a fraction of its row of cells): faster on the axis
+    # as in mass flow, and slightly inwards, so that the wall nodes leave their wall positions
+    xL = X.copy()
+    xL[:, 1] -= 0.004 * (1.0 + z) * (1.0 - 0.5 * (r / wall.radius_at(z)) ** 2)
+    xL[:, 0] *= 1.0 - 0.002 * z / z.max()
+    on_wall = np.abs(wall.project(X).distance) < 1e-9
+    xL[on_wall] = wall.project(xL[on_wall]).closest  # in contact
+    return sm, wall, X, xL, smoother.smooth(xL), smoother
+
+
+def test_smoothing_boundary_rules_and_rank_independence(comm):
+    """One smoothing of a sagged hopper: outlet nodes back at their start, axis nodes at
+    r = 0, wall nodes on the wall (in contact: distance 0 to round-off), no cell below the
+    smoother's quality floor; and on 2 ranks every local node (owned and ghost) where the
+    serial smoothing puts it. Ghost rows enter the owned nodes' averages, so a ghost placed
+    differently from its owner shows up as an O(motion) = 1e-3 m difference; the tolerance
+    1e-12 m is the round-off of the sums taken in another order."""
+    sm, wall, X, xL, xs, smoother = _smoothed_hopper(comm)
+    outlet = sm.nodes_on("outlet")
+    axis = np.setdiff1d(sm.nodes_on("axis"), outlet)
+    on_wall = np.setdiff1d(sm.nodes_on("wall"), np.concatenate([outlet, sm.nodes_on("top")]))
+    assert np.array_equal(xs[outlet], X[outlet])
+    assert np.all(xs[axis, 0] == 0.0)
+    assert np.abs(wall.project(xs[on_wall]).distance).max() < 1e-12
+    assert smoother.min_scaled_jacobian(xs) >= 0.05
+    assert comm.allreduce(float(np.abs(xs - xL).max()), op=MPI.MAX) > 1e-3  # it did smooth
+    if comm.size > 1:
+        _, _, X1, _, xs1, _ = _smoothed_hopper(MPI.COMM_SELF)
+        key = {tuple(np.round(p, 9)): i for i, p in enumerate(X1)}
+        serial = xs1[[key[tuple(np.round(p, 9))] for p in X]]
+        assert np.abs(xs - serial).max() < 1e-12
+
+
 # ---------------------------------------------------------------------------- in a discharge
 
 def _ch3_scene(ale: bool, duration: float, h: float = 0.05):

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from mpi4py import MPI
 
-from silo_dolfinx.ale.remap import RemapReport, Remapper, cell_state, qp_volumes, redistribute
+from silo_dolfinx.ale.remap import RemapReport, Remapper, cell_state, cell_volume_density, qp_volumes, redistribute
 from silo_dolfinx.ale.smoothing import Smoother
 from silo_dolfinx.ale.tracers import Tracers
 
@@ -70,7 +70,6 @@ class ALE:
         self.k = sum(c for _, c in self.fields)
         n = s.n_cells_owned * s.nq
         no = s.n_cells_owned
-        self._Q = np.zeros((n, self.k))
         self._dV = np.zeros(n)
         self._means, self._lo, self._hi = np.zeros((no, self.k)), np.zeros((no, self.k)), np.zeros((no, self.k))
         self._vol, self._rho = np.zeros(no), np.zeros(no)
@@ -107,9 +106,10 @@ class ALE:
         # cell means of the quadrature data at the Lagrangian positions
         no = s.n_cells_owned
         qp_volumes(xL, self.cn_tensor, self._points, self._weights, no, self._dV)
-        Q = self._gather()
         means, lo, hi, rho = self._means, self._lo, self._hi, self._rho
-        cell_state(Q, s.rho, nq, self._dV, means, lo, hi, self._vol, rho)
+        cell_volume_density(s.rho, nq, self._dV, self._vol, rho)
+        for j0, a in self._field_arrays():
+            cell_state(a, nq, self._dV, self._vol, j0, means, lo, hi)
         v = np.ascontiguousarray(s.v[s.node_dof])
         before = s.mechanical_energy_local()
         np.subtract(s.sig, s._sig_new, out=self._dsig)  # last step's increment, for the energy record
@@ -121,8 +121,8 @@ class ALE:
         # write back: mesh, quadrature data, velocity; rebuild what depends on them
         x[:, :2] = xS
         qp_volumes(xS, self.cn_tensor, self._points, self._weights, no, self._dV)
-        redistribute(Q, nq, self._dV, means, lo, hi)
-        self._scatter(Q)
+        for j0, a in self._field_arrays():
+            redistribute(a, nq, self._dV, means, lo, hi, j0)
         s.rho.reshape(-1, nq)[:] = rho[:, None]
         s.v[s.node_dof] = v
         deferred = s.after_remap(self._dV, self._dsig if s.steps > 0 else None)
@@ -146,23 +146,15 @@ class ALE:
         st.seconds["rebuild"] += t3 - t2 - deferred  # the deferred internal force is the Lagrangian step's
         return rep
 
-    def _gather(self) -> np.ndarray:
+    def _field_arrays(self):
+        """(first column in the remapped (n, k) cell arrays, (n·nq, c) view of the solver's
+        current array) for every remapped quadrature field: the stress and the material's
+        state. Fetched each time: the solver swaps its double buffers every step."""
         s = self.solver
-        Q = self._Q
-        j = 0
+        j0 = 0
         for name, c in self.fields:
-            a = s.sig if name == "sig" else s.state[name]
-            Q[:, j:j + c] = a.reshape(-1, c)
-            j += c
-        return Q
-
-    def _scatter(self, Q: np.ndarray) -> None:
-        s = self.solver
-        j = 0
-        for name, c in self.fields:
-            a = s.sig if name == "sig" else s.state[name]
-            a.reshape(-1, c)[:] = Q[:, j:j + c]
-            j += c
+            yield j0, (s.sig if name == "sig" else s.state[name]).reshape(-1, c)
+            j0 += c
 
     def _elastic_per_mass(self) -> np.ndarray:
         """Elastic energy per unit mass of the owned cells at the outlet (J/kg)."""

@@ -93,27 +93,39 @@ class Smoother:
         self.cls = cls
         own = np.arange(self.n_nodes) < self.nn
         self.interior = np.nonzero(own & (cls == INTERIOR))[0]
-        self.outlet = np.nonzero(own & (cls == OUTLET))[0]
-        self.wall_nodes = np.nonzero(own & (cls == WALL))[0]
-        self.axis_nodes = np.nonzero(own & (cls == AXIS))[0]
-        self.top_nodes = np.nonzero(own & (cls == TOP))[0]
-        corner = own & (cls == TOP_CORNER)
-        self.wall_corner = np.nonzero(corner & on["wall"])[0]
-        self.axis_corner = np.nonzero(corner & on["axis"])[0]
+        # boundary nodes, owned and ghost: every rank places its ghosts on the same targets
+        # as their owners (same data, same arithmetic), so no exchange is needed before the
+        # sweeps
+        self.outlet = np.nonzero(cls == OUTLET)[0]
+        self.wall_nodes = np.nonzero(cls == WALL)[0]
+        self.axis_nodes = np.nonzero(cls == AXIS)[0]
+        self.top_nodes = np.nonzero(cls == TOP)[0]
+        self.wall_corner = np.nonzero((cls == TOP_CORNER) & on["wall"])[0]
+        self.axis_corner = np.nonzero((cls == TOP_CORNER) & on["axis"])[0]
 
         # wall: initial arclengths; anchors (outlet edge and wall corners)
         self.S0 = wall.project(self.X[self.wall_nodes]).s
         self.anchors = np.concatenate([[0.0], wall.corner_s()])
         # axis: initial heights
         self.Z0 = self.X[self.axis_nodes, 1].copy()
-        # the top corners: the wall one's arclength, the axis one's height
-        self.S0_top, self.Z0_top = self._global_value(wall.project(self.X[self.wall_corner]).s,
-                                                      self.X[self.axis_corner, 1])
-        # top: every owned top node's initial arclength fraction along the top
+        # top: the polyline of all top nodes (corners included) from the axis to the wall, in
+        # the order of their reference radii; gathered every smoothing by one Allgatherv
         gidx = nmap.local_to_global(np.arange(self.n_nodes, dtype=np.int32))
         self._top_all = np.nonzero(own & ((cls == TOP) | (cls == TOP_CORNER)) & on["top"])[0]
-        self._top_gidx = gidx[self._top_all]
-        order, pts = self._top_polyline(self.X)
+        counts = np.array(self.comm.allgather(2 * self._top_all.size))
+        self._top_counts = (counts, np.concatenate([[0], np.cumsum(counts)[:-1]]))
+        self._top_buf = np.empty(int(counts.sum()))
+        r0 = np.concatenate(self.comm.allgather(self.X[self._top_all, 0]))
+        order = np.concatenate(self.comm.allgather(gidx[self._top_all]))
+        self._top_order = np.argsort(r0, kind="stable")
+        order = order[self._top_order]
+        # its ends are the two top corners (Lagrangian): the axis one's height and the wall
+        # one's arclength scale the axis and the upper wall
+        g_axis, g_wall = self._global_value(gidx[self.axis_corner], gidx[self.wall_corner])
+        if not (order[0] == g_axis and order[-1] == g_wall):
+            raise ValueError("the top surface does not run from the axis to the wall: not a silo mesh")
+        pts = self._top_polyline(self.X)
+        self.S0_top, self.Z0_top = self._top_corners(pts)
         s = _arclength(pts)
         lam = s / max(s[-1], 1e-300)
         where = {g: i for i, g in enumerate(order)}
@@ -135,13 +147,15 @@ class Smoother:
         self.comm.Allreduce(v, g, op=MPI.MAX)
         return tuple(float(x) if np.isfinite(x) else float("nan") for x in g)
 
-    def _top_polyline(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Global indices and positions of all top nodes in order from the axis to the wall
-        (gathered on every rank; ordered by their radius in the reference mesh)."""
-        data = np.column_stack([self._top_gidx.astype(float), self.X[self._top_all, 0], x[self._top_all]])
-        allp = np.concatenate(self.comm.allgather(data))  # owned nodes: each node once
-        allp = allp[np.argsort(allp[:, 1], kind="stable")]
-        return allp[:, 0].astype(np.int64), np.ascontiguousarray(allp[:, 2:4])
+    def _top_polyline(self, x: np.ndarray) -> np.ndarray:
+        """Positions of all top nodes in order from the axis to the wall (on every rank)."""
+        counts, displs = self._top_counts
+        self.comm.Allgatherv(np.ascontiguousarray(x[self._top_all]), [self._top_buf, counts, displs, MPI.DOUBLE])
+        return self._top_buf.reshape(-1, 2)[self._top_order]  # owned nodes: each node once
+
+    def _top_corners(self, pts: np.ndarray) -> tuple[float, float]:
+        """(arclength of the wall corner, height of the axis corner) of a top polyline."""
+        return float(self.wall.project(pts[-1:]).s[0]), float(pts[0, 1])
 
     def _accumulated(self, x: np.ndarray) -> np.ndarray:
         """Per owned node, summed over its cells on all ranks: (Σ edge midpoints (2), their
@@ -172,13 +186,14 @@ class Smoother:
 
     # ------------------------------------------------------------------ the smoothing
     def targets(self, xL: np.ndarray) -> np.ndarray:
-        """Boundary nodes on their targets; interior nodes at the predictor (owned rows)."""
+        """Boundary nodes on their targets, interior nodes at the predictor (all local rows)."""
         x = (self.x_prev if self.predictor == "previous" else xL).copy()
         x[self.outlet] = self.X[self.outlet]
         x[self.wall_corner] = xL[self.wall_corner]
         x[self.axis_corner] = xL[self.axis_corner]
         # the two top corners: the wall one's arclength, the axis one's height
-        s_top, z_top = self._global_value(self.wall.project(xL[self.wall_corner]).s, xL[self.axis_corner, 1])
+        pts = self._top_polyline(xL)
+        s_top, z_top = self._top_corners(pts)
         # wall: Eulerian below the highest anchor under the top corner, stretched above it
         if self.wall_nodes.size:
             below = self.anchors[self.anchors < min(s_top, self.S0_top) - 1e-9 * self.wall.length]
@@ -194,7 +209,6 @@ class Smoother:
             x[self.axis_nodes, 0] = 0.0
             x[self.axis_nodes, 1] = self.Z0 * (z_top / self.Z0_top)
         # top: on the current material surface at the initial arclength fractions
-        _, pts = self._top_polyline(xL)
         if self.top_nodes.size:
             s = _arclength(pts)
             st = self.top_fraction * s[-1]
@@ -205,8 +219,7 @@ class Smoother:
     def smooth(self, xL: np.ndarray) -> np.ndarray:
         """New node positions (all local rows) for the Lagrangian positions ``xL`` (n, 2)."""
         xL = np.ascontiguousarray(xL[:, :2])
-        x = self.targets(xL)
-        self._sync(x)
+        x = self.targets(xL)  # ghost rows included (the previous result was synchronised)
         for _ in range(self.sweeps):
             if self.wL == 0.0 and self.wA == 0.0:
                 break

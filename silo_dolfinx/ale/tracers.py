@@ -100,15 +100,18 @@ class Tracers:
             self._gone["initial"] += self.initial[out].tolist()
         stay = status == FOUND
         move = status == GHOST
+        self.cell, self.xi = cell[stay], xi[stay]
+        self.id, self.row, self.initial = self.id[stay], self.row[stay], self.initial[stay]
         # tracers that walked into a ghost cell go to its owner, which walks on from there
+        # (rare: one cheap count decides whether the exchange runs at all)
+        if self.comm.size == 1 or self.comm.allreduce(int(move.sum()), op=MPI.SUM) == 0:
+            return
         outgoing = [[] for _ in range(self.comm.size)]
         for k in np.nonzero(move)[0]:
             g = cell[k] - self.n_owned
             outgoing[int(self.ghost_owner[g])].append((int(self.ghost_global[g]), p[k, 0], p[k, 1], int(self.id[k]),
                                                          int(self.row[k]), *self.initial[k]))
         incoming = [t for part in self.comm.alltoall(outgoing) for t in part]
-        self.cell, self.xi = cell[stay], xi[stay]
-        self.id, self.row, self.initial = self.id[stay], self.row[stay], self.initial[stay]
         if incoming:
             a = np.array(incoming, float).reshape(-1, 7)
             c = a[:, 0].astype(np.int64) - self.offset

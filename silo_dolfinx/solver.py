@@ -440,20 +440,27 @@ class ExplicitSolver:
         self.energy_scale = max(getattr(self, "energy_scale", 0.0), g.scale)
         return g
 
-    def _kinetic_elastic_local(self) -> tuple[float, float]:
-        ke = _kinetic(self.m_inertial, self.v, self.n_owned)
+    def _kinetic_elastic_local(self, increment: np.ndarray | None = None) -> tuple[float, float]:
+        ke = self.kinetic_energy_local()
         if self.steps > 0:  # the previous stress is still in the double buffer
-            return ke, self.material.elastic_energy_mean(self.sig, self._sig_new, self.dV)
+            return ke, self.material.elastic_energy_mean(self.sig, self._sig_new, self.dV, increment)
+        if increment is not None:
+            increment[:] = 0.0
         return ke, self.material.elastic_energy(self.sig, self.dV)
 
-    def mechanical_energy_local(self) -> float:
-        """This rank's kinetic + elastic energy as :meth:`global_energy` counts them (J)."""
-        return sum(self._kinetic_elastic_local())
+    def kinetic_energy_local(self) -> float:
+        return _kinetic(self.m_inertial, self.v, self.n_owned)
 
-    def after_remap(self, dV: np.ndarray, sig_increment: np.ndarray | None = None) -> float:
+    def mechanical_energy_local(self, increment: np.ndarray | None = None) -> float:
+        """This rank's kinetic + elastic energy as :meth:`global_energy` counts them (J); with
+        ``increment``, the last step's stress increment σ^{n+1} − σ^n is written into it."""
+        return sum(self._kinetic_elastic_local(increment))
+
+    def after_remap(self, dV: np.ndarray, sig_increment: np.ndarray | None = None) -> tuple[float, float]:
         """The mesh moved and ``sig``, ``state``, ``rho`` and ``v`` were remapped onto it:
         rebuild what depends on them (volumes, lumped mass, stable Δt, internal force).
 
+        ``v`` must hold its owners' values on the ghost rows (the remapped velocity does).
         ``dV``: the quadrature-point volumes on the new mesh (the remap computed them; all
         cells are active in a discharge). The cell dilatation rate of the bulk viscosity
         keeps its value from the last Lagrangian step.
@@ -464,14 +471,14 @@ class ExplicitSolver:
         the first step after a remap books consistently (without it, half a step of stress
         power per remap shows up as balance error).
 
-        Returns the seconds spent assembling an internal force that the last step deferred
-        to this rebuild (:attr:`defer_force`): Lagrangian work, done here on the new mesh
-        instead of on the old one (0 if nothing was deferred)."""
+        Returns (seconds spent assembling an internal force that the last step deferred to
+        this rebuild (:attr:`defer_force`): Lagrangian work, done here on the new mesh instead
+        of on the old one, 0 if nothing was deferred; this rank's elastic energy as
+        :meth:`mechanical_energy_local` counts it, taken in the same pass)."""
         num = self.numerics
         t_half = self.t - 0.5 * self.dt_prev  # where the staggered velocity lives
-        for c in self.constraints:
+        for c in self.constraints:  # on owned and ghost dofs alike: ghosts stay consistent
             self.v[c.dofs, c.comp] = 0.0 if c.value is None else c.value(t_half)
-        self._vvec.scatter_forward()
         np.copyto(self.dV, dV)
         kernels.cell_average(self.rho, self.dV, self.nq, self.rho_cell)
         self._update_stable_dt()
@@ -485,10 +492,12 @@ class ExplicitSolver:
         self._force_stale = False
         if sig_increment is None:
             np.copyto(self._sig_new, self.sig)  # the "previous" stress of the energy average
+            elastic = self.material.elastic_energy(self.sig, self.dV)
         else:
-            np.subtract(self.sig, sig_increment, out=self._sig_new)
+            elastic = self.material.elastic_energy_mean_from_increment(self.sig, sig_increment, self.dV,
+                                                                       self._sig_new)
         np.multiply(self.v, self.dt_prev, out=self._dx_prev)
-        return deferred
+        return deferred, elastic
 
     def replace_gravity(self) -> None:
         """One full-gravity load on the current lumped mass in place of all gravity loads
@@ -499,7 +508,7 @@ class ExplicitSolver:
         self.add_gravity()
 
     def kinetic_energy_now(self) -> float:
-        return self.comm.allreduce(_kinetic(self.m_inertial, self.v, self.n_owned), op=MPI.SUM)
+        return self.comm.allreduce(self.kinetic_energy_local(), op=MPI.SUM)
 
     def check_finite(self) -> None:
         ok = bool(np.all(np.isfinite(self.v)) and np.all(np.isfinite(self.sig)))

@@ -74,6 +74,8 @@ class ALE:
         self._means, self._lo, self._hi = np.zeros((no, self.k)), np.zeros((no, self.k)), np.zeros((no, self.k))
         self._vol, self._rho = np.zeros(no), np.zeros(no)
         self._dsig = np.zeros((n, 4))
+        # velocity dofs numbered as the geometry nodes (usual for P1): remap the solver's array itself
+        self._same_numbering = bool(np.array_equal(s.node_dof, np.arange(s.node_dof.size)))
         # cells that touch the outlet: the only ones whose energy can leave
         f2c = self.mesh.topology.connectivity(1, 2)
         outlet = model.sm.facets("outlet")
@@ -110,9 +112,8 @@ class ALE:
         cell_volume_density(s.rho, nq, self._dV, self._vol, rho)
         for j0, a in self._field_arrays():
             cell_state(a, nq, self._dV, self._vol, j0, means, lo, hi)
-        v = np.ascontiguousarray(s.v[s.node_dof])
-        before = s.mechanical_energy_local()
-        np.subtract(s.sig, s._sig_new, out=self._dsig)  # last step's increment, for the energy record
+        v = s.v if self._same_numbering else np.ascontiguousarray(s.v[s.node_dof])  # remapped in place
+        before = s.mechanical_energy_local(increment=self._dsig)  # and the last step's stress increment
         elastic_density = self._elastic_per_mass()  # J/kg of the outlet cells, for what flows out
 
         rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
@@ -124,15 +125,16 @@ class ALE:
         for j0, a in self._field_arrays():
             redistribute(a, nq, self._dV, means, lo, hi, j0)
         s.rho.reshape(-1, nq)[:] = rho[:, None]
-        s.v[s.node_dof] = v
-        deferred = s.after_remap(self._dV, self._dsig if s.steps > 0 else None)
+        if not self._same_numbering:
+            s.v[s.node_dof] = v
+        deferred, elastic = s.after_remap(self._dV, self._dsig if s.steps > 0 else None)
         self.model.after_remap()
         if self.tracers is not None:
             self.tracers.relocate(xL, xS)
         out_el = float(np.dot(rep.outflow_cells[self._outlet_cells], elastic_density))
         out = rep.outflow_kinetic + out_el
         s.energy.outflow += out
-        s.energy.remap += before - s.mechanical_energy_local() - out
+        s.energy.remap += before - (s.kinetic_energy_local() + elastic) - out
         t3 = time.perf_counter()
 
         st = self.stats

@@ -233,6 +233,7 @@ class Remapper:
             "k": k, "R": R, "grads": grads, "Rpm": Rpm, "vec": {"R": vR, "grads": vgrads, "Rpm": vRpm},
             "cen1": np.zeros((na, 2)), "low": np.zeros((nf, 1 + k)), "A": np.zeros((nf, 1 + k)),
             "E": np.zeros((no, 1 + k)), "mnew": np.zeros(no), "qmin": np.zeros((no, 1 + k)),
+            "pp": np.zeros((no, 1 + k)), "pm": np.zeros((no, 1 + k)),
             "qmax": np.zeros((no, 1 + k)), "fmass": np.zeros(nf), "rho_old": np.zeros(no), "rho_new": np.zeros(no),
         }
         return w
@@ -254,8 +255,9 @@ class Remapper:
         fmass, mnew, rho_old, rho_new = w["fmass"], w["mnew"], w["rho_old"], w["rho_new"]
 
         # stage 1: mass (the density transported by the volume fluxes); column 0
+        pp, pm = w["pp"], w["pm"]
         _mass_stage_low(fl, fr, R, grads, self._cen0, self._swept, self._vol0, self._vol1, ho, no, E, low, A, Rpm,
-                        qmin, qmax, rho_old)
+                        qmin, qmax, pp, pm, rho_old)
         if ho:
             vec["Rpm"].scatter_forward()
         _fct_apply(fl, fr, low, A, Rpm, ho, no, 0, 1, E, fmass)
@@ -268,7 +270,7 @@ class Remapper:
         # stage 2: intensive variables, mass-weighted, with the final mass fluxes; columns 1..k
         if k:
             _value_stage_low(fl, fr, fmass, R, grads, self._cen0, self._xf, rho_old, self._vol0, mnew, ho, no, E,
-                             low, A, Rpm, qmin, qmax)
+                             low, A, Rpm, qmin, qmax, pp, pm)
             if bounds is not None:
                 np.minimum(bounds[0], qmin[:, 1:], out=bounds[0])
                 np.maximum(bounds[1], qmax[:, 1:], out=bounds[1])
@@ -477,24 +479,20 @@ def _ls_gradients(vals, cen, fl, fr, n_owned, grads):
             grads[c, j, 1] = (axx[c] * b[c, j, 1] - axy[c] * b[c, j, 0]) / det
 
 
-@numba.njit(cache=True, fastmath=FAST)
-def _neighbour_bounds(fl, fr, vals, j0, j1, n_owned, qmin, qmax):
-    """[min, max] of columns j0..j1 over each owned cell and its edge neighbours."""
-    for c in range(n_owned):
-        for j in range(j0, j1):
-            qmin[c, j] = vals[c, j]
-            qmax[c, j] = vals[c, j]
-    for f in range(fl.shape[0]):
-        l, r = fl[f], fr[f]
-        if l < 0 or r < 0:
-            continue
-        for j in range(j0, j1):
-            if l < n_owned:
-                qmin[l, j] = min(qmin[l, j], vals[r, j])
-                qmax[l, j] = max(qmax[l, j], vals[r, j])
-            if r < n_owned:
-                qmin[r, j] = min(qmin[r, j], vals[l, j])
-                qmax[r, j] = max(qmax[r, j], vals[l, j])
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _face_bounds(l, r, vals, j0, j1, n_owned, qmin, qmax):
+    """Widen the [min, max] of columns j0..j1 of the owned cells of an interior edge by the
+    value across it (called in the flux loops: the cell and edge-neighbour bounds in the
+    same pass over the edges)."""
+    if l < 0 or r < 0:
+        return
+    for j in range(j0, j1):
+        if l < n_owned:
+            qmin[l, j] = min(qmin[l, j], vals[r, j])
+            qmax[l, j] = max(qmax[l, j], vals[r, j])
+        if r < n_owned:
+            qmin[r, j] = min(qmin[r, j], vals[l, j])
+            qmax[r, j] = max(qmax[r, j], vals[l, j])
 
 
 @numba.njit(cache=True, fastmath=FAST)
@@ -508,19 +506,21 @@ def _limiters(E, mnew, qmin, qmax, pp, pm, j0, j1, n_owned, Rpm):
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def _mass_stage_low(fl, fr, R, grads, cen, mom, vol0, vol1, ho, n_owned, E, low, A, Rpm, qmin, qmax, rho_old):
+def _mass_stage_low(fl, fr, R, grads, cen, mom, vol0, vol1, ho, n_owned, E, low, A, Rpm, qmin, qmax, pp, pm,
+                    rho_old):
     """Stage 1, low order: donor-cell mass fluxes ρ_up δV into ``low[:, 0]``, the masses they
     leave in ``E[:, 0]``; high order: the upwind linear reconstruction integrated exactly over
     the swept region (from its moments), the difference in ``A[:, 0]``; Zalesak's limiters for
-    ρ ∈ [min, max] of the neighbourhood on the new volume."""
-    _neighbour_bounds(fl, fr, R, 0, 1, n_owned, qmin, qmax)
-    pp = np.zeros((n_owned, 1))
-    pm = np.zeros((n_owned, 1))
+    ρ ∈ [min, max] of the neighbourhood on the new volume. Column 0 of the work arrays."""
     for c in range(n_owned):
         rho_old[c] = R[c, 0]
         E[c, 0] = R[c, 0] * vol0[c]
+        qmin[c, 0] = qmax[c, 0] = R[c, 0]
+        pp[c, 0] = pm[c, 0] = 0.0
     for f in range(fl.shape[0]):
         l, r = fl[f], fr[f]
+        if ho:
+            _face_bounds(l, r, R, 0, 1, n_owned, qmin, qmax)
         m0 = mom[f, 0]
         d = l if m0 > 0.0 else r
         if d < 0 or m0 == 0.0 or l == CLOSED or r == CLOSED:
@@ -549,19 +549,20 @@ def _mass_stage_low(fl, fr, R, grads, cen, mom, vol0, vol1, ho, n_owned, E, low,
 
 @numba.njit(cache=True, fastmath=FAST)
 def _value_stage_low(fl, fr, fmass, R, grads, cen, xf, rho_old, vol0, mnew, ho, n_owned, E, low, A, Rpm, qmin,
-                     qmax):
+                     qmax, pp, pm):
     """Stage 2, low order: F·Q_up with the final mass fluxes F (columns 1..k of E hold the
-    totals m Q); high order: F·Q at the swept region's centroid; limiters for Q in bounds."""
+    totals m Q); high order: F·Q at the swept region's centroid; limiters for Q in bounds.
+    The bounds [qmin, qmax] (cell and edge neighbours) are computed at any order."""
     k1 = R.shape[1]
-    _neighbour_bounds(fl, fr, R, 1, k1, n_owned, qmin, qmax)
-    pp = np.zeros((n_owned, k1))
-    pm = np.zeros((n_owned, k1))
     for c in range(n_owned):
         m = rho_old[c] * vol0[c]
         for j in range(1, k1):
             E[c, j] = m * R[c, j]
+            qmin[c, j] = qmax[c, j] = R[c, j]
+            pp[c, j] = pm[c, j] = 0.0
     for f in range(fl.shape[0]):
         l, r = fl[f], fr[f]
+        _face_bounds(l, r, R, 1, k1, n_owned, qmin, qmax)
         F = fmass[f]
         d = l if F > 0.0 else r
         if d < 0 or F == 0.0:

@@ -47,10 +47,19 @@ class Material(ABC):
         """Stored elastic energy Σ ½ σ:C⁻¹:σ dV (J)."""
         return float(_elastic_energy(sig, dV, self.K, self.G))
 
-    def elastic_energy_mean(self, sig: np.ndarray, sig_prev: np.ndarray, dV: np.ndarray) -> float:
+    def elastic_energy_mean(self, sig: np.ndarray, sig_prev: np.ndarray, dV: np.ndarray,
+                            increment: np.ndarray | None = None) -> float:
         """½ (elastic energy of ``sig`` + of ``sig_prev``) in one pass (J): the energy record's
-        value at the half step."""
-        return float(_elastic_energy_mean(sig, sig_prev, dV, self.K, self.G))
+        value at the half step; with ``increment``, also writes sig − sig_prev into it."""
+        if increment is None:
+            return float(_elastic_energy_mean(sig, sig_prev, dV, self.K, self.G))
+        return float(_energy_mean_and_difference(sig, sig_prev, dV, self.K, self.G, increment, False))
+
+    def elastic_energy_mean_from_increment(self, sig: np.ndarray, increment: np.ndarray, dV: np.ndarray,
+                                           sig_prev: np.ndarray) -> float:
+        """Writes the previous stress sig − increment into ``sig_prev`` and returns ½ (elastic
+        energy of ``sig`` + of it), in one pass (J)."""
+        return float(_energy_mean_and_difference(sig, increment, dV, self.K, self.G, sig_prev, True))
 
     def elastic_energy_density(self, sig: np.ndarray) -> np.ndarray:
         """½ σ:C⁻¹:σ at every point (J/m³)."""
@@ -80,6 +89,17 @@ def _elastic_energy_mean(sig, sig_prev, dV, K, G):
     e = 0.0
     for i in range(sig.shape[0]):
         e += dV[i] * (_density(sig[i], K, G) + _density(sig_prev[i], K, G))
+    return 0.5 * e
+
+
+@numba.njit(cache=True, fastmath=FAST)
+def _energy_mean_and_difference(a, b, dV, K, G, out, of_difference):
+    """out = a − b; returns ½ Σ dV (e(a) + e(b)), or with ``of_difference`` ½ Σ dV (e(a) + e(out))."""
+    e = 0.0
+    for i in range(a.shape[0]):
+        for j in range(4):
+            out[i, j] = a[i, j] - b[i, j]
+        e += dV[i] * (_density(a[i], K, G) + (_density(out[i], K, G) if of_difference else _density(b[i], K, G)))
     return 0.5 * e
 
 

@@ -6,7 +6,9 @@
 The ch. 4 scene (~7,300 cells) starts from a K0 state (fill skipped), stores 0.5 s and
 discharges freely for ``--discharge`` seconds, once per ALE frequency and rank count. From
 each run's summary.json: steps, wall-clock of the discharge, and the ALE timers (smoothing,
-remap, rebuild of mass/forces after a remap). The Lagrangian step is what remains. The
+remap, rebuild of mass/Δt/stress closure after a remap). The Lagrangian step is what remains
+(it includes the internal force that the step before a remap defers to the rebuild: one
+force assembly per step either way). The
 "72 s scene" column extrapolates the full fill-store-discharge run from the measured
 discharge rate (the fill runs at the Lagrangian rate, without ALE, so this is an upper bound).
 Each configuration runs ``--repeat`` times; medians are printed (these machines are noisy).

@@ -41,6 +41,7 @@ from mpi4py import MPI
 
 from silo_dolfinx import kernels
 from silo_dolfinx._compat import geometry_dofmap
+from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.forms import AxisymmetricForms
 from silo_dolfinx.geometry.quality import CYCLE
 from silo_dolfinx.materials.base import Material
@@ -287,7 +288,7 @@ class ExplicitSolver:
         self.dt_crit = kernels.stable_dt(x, self._active_nodes, self.rho_cell, self.material.wave_modulus,
                                          self.trd_cell, *self.numerics.bulk_viscosity,
                                          self.numerics.mass_scaling, self.L_cell, self.c_cell, kernels.HOOP)
-        self.dt_crit = self.comm.allreduce(self.dt_crit, op=MPI.MIN)
+        self.dt_crit = reduce_scalar(self.comm, self.dt_crit, MPI.MIN)
         self._dt_crit0 = self.dt_crit
         if self.dt == 0.0:
             self.dt = self.numerics.time_step_scale * self.dt_crit
@@ -364,7 +365,7 @@ class ExplicitSolver:
         dt_crit = kernels.stable_dt(x, self._active_nodes, self.rho_cell, self.material.wave_modulus,
                                     self.trd_cell, *num.bulk_viscosity, num.mass_scaling, self.L_cell,
                                     self.c_cell, kernels.HOOP)
-        dt_crit = self.comm.allreduce(dt_crit, op=MPI.MIN)
+        dt_crit = reduce_scalar(self.comm, dt_crit, MPI.MIN)
         clock("dt")
         if not (dt_crit > 1e-6 * self._dt_crit0 and math.isfinite(dt_crit)):
             np.copyto(x, self._x_old)

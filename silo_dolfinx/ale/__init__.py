@@ -81,6 +81,7 @@ class ALE:
         outlet = model.sm.facets("outlet")
         cells = np.concatenate([f2c.links(f) for f in outlet]) if len(outlet) else np.zeros(0, np.int32)
         self._outlet_cells = np.unique(cells[cells < no]).astype(np.int64)  # empty on ranks away from it
+        self._outlet_points = (self._outlet_cells[:, None] * s.nq + np.arange(s.nq)).ravel()
         self._points = np.ascontiguousarray(s.forms.points, dtype=np.float64)
         self._weights = np.ascontiguousarray(s.forms.weights, dtype=np.float64)
         self.stats = ALEStats()
@@ -163,8 +164,8 @@ class ALE:
         s = self.solver
         nq = s.nq
         c = self._outlet_cells
-        idx = (c[:, None] * nq + np.arange(nq)).ravel()
-        e = s.material.elastic_energy_density(np.ascontiguousarray(s.sig[idx])) * self._dV[idx]
+        idx = self._outlet_points
+        e = s.material.elastic_energy_density(s.sig[idx]) * self._dV[idx]
         return e.reshape(-1, nq).sum(axis=1) / np.maximum(self._rho[c] * self._vol[c], 1e-300)
 
     # ------------------------------------------------------------------ diagnostics

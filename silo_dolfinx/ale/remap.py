@@ -51,6 +51,7 @@ import numpy as np
 from mpi4py import MPI
 
 from silo_dolfinx._compat import geometry_dofmap
+from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.geometry.quality import CYCLE
 from silo_dolfinx.kernels import FAST
 
@@ -179,7 +180,7 @@ class Remapper:
         _cell_geometry(self._x0, self.cn, self.orient, self._vol0, self._cen0)
         _swept(self._x0, self._x1, self.fnodes, self._swept, self._xf)
         c = _courant(self.fleft, self.fright, self._swept, self._vol0, self.n_owned)
-        return self.comm.allreduce(c, op=MPI.MAX)
+        return reduce_scalar(self.comm, c, MPI.MAX)
 
     def _load(self, x0, x1):
         self._x0[:] = x0[:, :2]

@@ -47,6 +47,7 @@ import numpy as np
 from mpi4py import MPI
 
 from silo_dolfinx._compat import geometry_dofmap
+from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.ale.remap import _orientation
 from silo_dolfinx.geometry.quality import CYCLE, worst_cells
 
@@ -177,7 +178,7 @@ class Smoother:
 
     def min_scaled_jacobian(self, x: np.ndarray) -> float:
         """Global min scaled Jacobian of the owned cells at ``x`` (one reduction)."""
-        return self.comm.allreduce(worst_cells(x, self.cn, self.orient, self.n_cells)[0], op=MPI.MIN)
+        return reduce_scalar(self.comm, worst_cells(x, self.cn, self.orient, self.n_cells)[0], MPI.MIN)
 
     def quality(self, x: np.ndarray) -> tuple[float, float]:
         """Global (min scaled Jacobian, max aspect ratio) of the owned cells at ``x``."""

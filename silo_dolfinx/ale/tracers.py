@@ -21,6 +21,7 @@ import numba
 import numpy as np
 from mpi4py import MPI
 
+from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.ale.remap import OUTSIDE
 
 FOUND, GHOST, DISCHARGED = 0, 1, 2
@@ -104,7 +105,7 @@ class Tracers:
         self.id, self.row, self.initial = self.id[stay], self.row[stay], self.initial[stay]
         # tracers that walked into a ghost cell go to its owner, which walks on from there
         # (rare: one cheap count decides whether the exchange runs at all)
-        if self.comm.size == 1 or self.comm.allreduce(int(move.sum()), op=MPI.SUM) == 0:
+        if self.comm.size == 1 or reduce_scalar(self.comm, float(move.sum())) == 0.0:
             return
         outgoing = [[] for _ in range(self.comm.size)]
         for k in np.nonzero(move)[0]:

@@ -311,6 +311,9 @@ def test_tracers_follow_the_flow(ale_run):
     tr = read_csv(out / "tracers.csv")
     info = summary["stages"][-1]["tracers"]
     assert info["seeded"] == tr["id"].size == 10 * 12  # the scene's default 10 rows x 12
+    # identity survives a hop between ranks: every id once, with its own seeding row
+    assert np.unique(tr["id"]).size == tr["id"].size
+    assert np.array_equal(tr["row"], tr["id"] // 12)
     assert info["inside"] + info["discharged"] == info["seeded"]
     inside = np.isnan(tr["discharged_at"])
     assert np.all(tr["z"][inside] <= tr["z0"][inside] + 0.05)

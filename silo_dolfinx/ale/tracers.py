@@ -101,8 +101,9 @@ class Tracers:
             self._gone["initial"] += self.initial[out].tolist()
         stay = status == FOUND
         move = status == GHOST
+        ids, rows, initial = self.id, self.row, self.initial  # indexed as ``cell`` (before filtering)
         self.cell, self.xi = cell[stay], xi[stay]
-        self.id, self.row, self.initial = self.id[stay], self.row[stay], self.initial[stay]
+        self.id, self.row, self.initial = ids[stay], rows[stay], initial[stay]
         # tracers that walked into a ghost cell go to its owner, which walks on from there
         # (rare: one cheap count decides whether the exchange runs at all)
         if self.comm.size == 1 or reduce_scalar(self.comm, float(move.sum())) == 0.0:
@@ -110,8 +111,8 @@ class Tracers:
         outgoing = [[] for _ in range(self.comm.size)]
         for k in np.nonzero(move)[0]:
             g = cell[k] - self.n_owned
-            outgoing[int(self.ghost_owner[g])].append((int(self.ghost_global[g]), p[k, 0], p[k, 1], int(self.id[k]),
-                                                         int(self.row[k]), *self.initial[k]))
+            outgoing[int(self.ghost_owner[g])].append((int(self.ghost_global[g]), p[k, 0], p[k, 1], int(ids[k]),
+                                                         int(rows[k]), *initial[k]))
         incoming = [t for part in self.comm.alltoall(outgoing) for t in part]
         if incoming:
             a = np.array(incoming, float).reshape(-1, 7)

@@ -435,6 +435,18 @@ def _courant(fl, fr, swept, vol, n_owned):
     return worst
 
 
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _normal_terms(c, l, r, vals, w, dx, dy, axx, axy, ayy, b):
+    """Add the least-squares terms of edge (l, r) (centroid offset dx, dy; weight w) to cell c."""
+    axx[c] += w * dx * dx
+    axy[c] += w * dx * dy
+    ayy[c] += w * dy * dy
+    for j in range(vals.shape[1]):
+        dq = vals[r, j] - vals[l, j]
+        b[c, j, 0] += w * dx * dq
+        b[c, j, 1] += w * dy * dq
+
+
 @numba.njit(cache=True, fastmath=FAST)
 def _ls_gradients(vals, cen, fl, fr, n_owned, grads):
     """Least-squares gradients (weights 1/|Δx|²) of every column of ``vals`` in owned cells."""
@@ -450,24 +462,11 @@ def _ls_gradients(vals, cen, fl, fr, n_owned, grads):
         dx = cen[r, 0] - cen[l, 0]
         dy = cen[r, 1] - cen[l, 1]
         w = 1.0 / (dx * dx + dy * dy + 1e-300)
-        wxx, wxy, wyy = w * dx * dx, w * dx * dy, w * dy * dy
         # both cells of the edge get the same normal-equation terms (the signs of Δx and Δq cancel)
         if l < n_owned:
-            axx[l] += wxx
-            axy[l] += wxy
-            ayy[l] += wyy
-            for j in range(k):
-                dq = vals[r, j] - vals[l, j]
-                b[l, j, 0] += w * dx * dq
-                b[l, j, 1] += w * dy * dq
+            _normal_terms(l, l, r, vals, w, dx, dy, axx, axy, ayy, b)
         if r < n_owned:
-            axx[r] += wxx
-            axy[r] += wxy
-            ayy[r] += wyy
-            for j in range(k):
-                dq = vals[r, j] - vals[l, j]
-                b[r, j, 0] += w * dx * dq
-                b[r, j, 1] += w * dy * dq
+            _normal_terms(r, l, r, vals, w, dx, dy, axx, axy, ayy, b)
     for c in range(n_owned):
         det = axx[c] * ayy[c] - axy[c] * axy[c]
         if det <= 1e-10 * (axx[c] + ayy[c]) ** 2:

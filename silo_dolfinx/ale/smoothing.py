@@ -42,6 +42,8 @@ Lagrangian mesh (θ = 1, ½, ¼, …, 0 — the Lagrangian mesh is always valid)
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from mpi4py import MPI
@@ -50,6 +52,7 @@ from silo_dolfinx._compat import geometry_dofmap
 from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.ale.remap import _orientation
 from silo_dolfinx.geometry.quality import CYCLE, worst_cells
+from silo_dolfinx.geometry.wall import arclength_of, slide
 
 OUTLET, TOP_CORNER, WALL, AXIS, TOP, INTERIOR = range(6)
 MIN_SCALED_JACOBIAN = 0.05  # a smoothed cell must keep every corner angle above ~3°
@@ -156,7 +159,8 @@ class Smoother:
 
     def _top_corners(self, pts: np.ndarray) -> tuple[float, float]:
         """(arclength of the wall corner, height of the axis corner) of a top polyline."""
-        return float(self.wall.project(pts[-1:]).s[0]), float(pts[0, 1])
+        kind, geo, s0, n_end, _ = self.wall.arrays
+        return float(arclength_of(pts[-1], kind, geo, s0, n_end)), float(pts[0, 1])
 
     def _accumulated(self, x: np.ndarray) -> np.ndarray:
         """Per owned node, summed over its cells on all ranks: (Σ edge midpoints (2), their
@@ -189,32 +193,10 @@ class Smoother:
     def targets(self, xL: np.ndarray) -> np.ndarray:
         """Boundary nodes on their targets, interior nodes at the predictor (all local rows)."""
         x = (self.x_prev if self.predictor == "previous" else xL).copy()
-        x[self.outlet] = self.X[self.outlet]
-        x[self.wall_corner] = xL[self.wall_corner]
-        x[self.axis_corner] = xL[self.axis_corner]
-        # the two top corners: the wall one's arclength, the axis one's height
         pts = self._top_polyline(xL)
-        s_top, z_top = self._top_corners(pts)
-        # wall: Eulerian below the highest anchor under the top corner, stretched above it
-        if self.wall_nodes.size:
-            below = self.anchors[self.anchors < min(s_top, self.S0_top) - 1e-9 * self.wall.length]
-            s_c = float(below.max()) if below.size else 0.0
-            s = np.where(self.S0 <= s_c, self.S0,
-                         s_c + (self.S0 - s_c) * (s_top - s_c) / max(self.S0_top - s_c, 1e-300))
-            proj = self.wall.project(xL[self.wall_nodes])
-            p, n = self.wall.point_normal_at(s)
-            gap = np.maximum(proj.distance, 0.0)  # the material's normal offset (a gap, never inside)
-            x[self.wall_nodes] = p - gap[:, None] * n
-        # axis: heights spread between the outlet (z = 0) and the top node on the axis
-        if self.axis_nodes.size:
-            x[self.axis_nodes, 0] = 0.0
-            x[self.axis_nodes, 1] = self.Z0 * (z_top / self.Z0_top)
-        # top: on the current material surface at the initial arclength fractions
-        if self.top_nodes.size:
-            s = _arclength(pts)
-            st = self.top_fraction * s[-1]
-            x[self.top_nodes, 0] = np.interp(st, s, pts[:, 0])
-            x[self.top_nodes, 1] = np.interp(st, s, pts[:, 1])
+        _place_boundary(x, xL, self.X, pts, self.outlet, self.wall_corner, self.axis_corner, self.wall_nodes,
+                        self.S0, self.anchors, self.S0_top, self.axis_nodes, self.Z0, self.Z0_top, self.top_nodes,
+                        self.top_fraction, *self.wall.arrays)
         return x
 
     def smooth(self, xL: np.ndarray) -> np.ndarray:
@@ -243,6 +225,52 @@ class Smoother:
             q = self.min_scaled_jacobian(xs)
         np.copyto(self.x_prev, xs)
         return xs
+
+
+@numba.njit(cache=True)
+def _place_boundary(x, xL, X, pts, outlet, corners_wall, corners_axis, wall_nodes, S0, anchors, S0_top, axis_nodes,
+                    Z0, Z0_top, top_nodes, top_fraction, kind, geo, s0, n_end, length):
+    """The boundary rules of the module docstring, in place on ``x``: outlet nodes back to
+    their reference positions ``X``, top corners Lagrangian (``xL``), wall / axis / top nodes
+    spread from the current top polyline ``pts`` (axis corner first, wall corner last)."""
+    for i in outlet:
+        x[i, 0], x[i, 1] = X[i, 0], X[i, 1]
+    for i in corners_wall:
+        x[i, 0], x[i, 1] = xL[i, 0], xL[i, 1]
+    for i in corners_axis:
+        x[i, 0], x[i, 1] = xL[i, 0], xL[i, 1]
+    m = pts.shape[0]
+    s_top = arclength_of(pts[m - 1], kind, geo, s0, n_end)  # the wall corner's arclength
+    z_top = pts[0, 1]  # the axis corner's height
+    # wall: Eulerian below the highest anchor under the top corner, stretched above it
+    nw = wall_nodes.size
+    if nw:
+        tol = 1e-9 * length
+        s_c = 0.0
+        for a in anchors:
+            if a < min(s_top, S0_top) - tol:
+                s_c = max(s_c, a)
+        stretch = (s_top - s_c) / max(S0_top - s_c, 1e-300)
+        s = np.empty(nw)
+        p = np.empty((nw, 2))
+        for j in range(nw):
+            s[j] = S0[j] if S0[j] <= s_c else s_c + (S0[j] - s_c) * stretch
+            p[j, 0], p[j, 1] = xL[wall_nodes[j], 0], xL[wall_nodes[j], 1]
+        slide(p, s, kind, geo, s0, n_end, length, p)
+        for j in range(nw):
+            x[wall_nodes[j], 0], x[wall_nodes[j], 1] = p[j, 0], p[j, 1]
+    # axis: heights spread between the outlet (z = 0) and the top node on the axis
+    for j in range(axis_nodes.size):
+        x[axis_nodes[j], 0] = 0.0
+        x[axis_nodes[j], 1] = Z0[j] * (z_top / Z0_top)
+    # top: on the current material surface at the initial arclength fractions
+    if top_nodes.size:
+        sp = _arclength(pts)
+        st = top_fraction * sp[m - 1]
+        r = np.interp(st, sp, pts[:, 0])
+        z = np.interp(st, sp, pts[:, 1])
+        for j in range(top_nodes.size):
+            x[top_nodes[j], 0], x[top_nodes[j], 1] = r[j], z[j]
 
 
 @numba.njit(cache=True)
@@ -300,5 +328,10 @@ def _relax(x, acc, r0, nodes, wL, wA):
             x[i, k] += wL * (lap - r0[i, k]) + wA * (mid - r0[i, 2 + k])
 
 
-def _arclength(pts: np.ndarray) -> np.ndarray:
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+@numba.njit(cache=True)
+def _arclength(pts):
+    """Arclength along a polyline at each of its points (0 at the first)."""
+    s = np.zeros(pts.shape[0])
+    for k in range(1, pts.shape[0]):
+        s[k] = s[k - 1] + math.sqrt((pts[k, 0] - pts[k - 1, 0]) ** 2 + (pts[k, 1] - pts[k - 1, 1]) ** 2)
+    return s

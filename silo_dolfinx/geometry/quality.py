@@ -94,19 +94,22 @@ def worst_cells(x: np.ndarray, cycle_nodes: np.ndarray, orient: np.ndarray, n: i
     smin = 1e300
     amax = 0.0
     for c in range(n):
-        lo = 1e300
-        hi = 0.0
-        for k in range(4):
-            a = cycle_nodes[c, (k + 3) % 4]
-            b = cycle_nodes[c, k]
-            d = cycle_nodes[c, (k + 1) % 4]
-            e1r, e1z = x[d, 0] - x[b, 0], x[d, 1] - x[b, 1]
-            e0r, e0z = x[a, 0] - x[b, 0], x[a, 1] - x[b, 1]
-            l1 = math.sqrt(e1r * e1r + e1z * e1z)
-            l0 = math.sqrt(e0r * e0r + e0z * e0z)
-            j = orient[c] * (e1r * e0z - e1z * e0r)
-            smin = min(smin, j / max(l0 * l1, 1e-300))
-            lo = min(lo, l1)
-            hi = max(hi, l1)
-        amax = max(amax, hi / lo if lo > 0.0 else np.inf)
+        n0, n1, n2, n3 = cycle_nodes[c, 0], cycle_nodes[c, 1], cycle_nodes[c, 2], cycle_nodes[c, 3]
+        # the four edges k -> k+1 and their lengths, each once
+        e0r, e0z = x[n1, 0] - x[n0, 0], x[n1, 1] - x[n0, 1]
+        e1r, e1z = x[n2, 0] - x[n1, 0], x[n2, 1] - x[n1, 1]
+        e2r, e2z = x[n3, 0] - x[n2, 0], x[n3, 1] - x[n2, 1]
+        e3r, e3z = x[n0, 0] - x[n3, 0], x[n0, 1] - x[n3, 1]
+        l0 = math.sqrt(e0r * e0r + e0z * e0z)
+        l1 = math.sqrt(e1r * e1r + e1z * e1z)
+        l2 = math.sqrt(e2r * e2r + e2z * e2z)
+        l3 = math.sqrt(e3r * e3r + e3z * e3z)
+        # corner k lies between edge k-1 (in) and edge k (out): J_k = (e_{k-1} x e_k) orient
+        o = orient[c]
+        smin = min(smin, o * (e3r * e0z - e3z * e0r) / max(l3 * l0, 1e-300),
+                   o * (e0r * e1z - e0z * e1r) / max(l0 * l1, 1e-300),
+                   o * (e1r * e2z - e1z * e2r) / max(l1 * l2, 1e-300),
+                   o * (e2r * e3z - e2z * e3r) / max(l2 * l3, 1e-300))
+        lo = min(l0, l1, l2, l3)
+        amax = max(amax, max(l0, l1, l2, l3) / lo if lo > 0.0 else np.inf)
     return smin, amax

@@ -167,6 +167,11 @@ class Wall:
         tan = np.column_stack((-nrm[:, 1], nrm[:, 0]))
         return Projection(d, q, nrm, tan, s, piece)
 
+    @property
+    def arrays(self) -> tuple:
+        """(kind, geo, s0, n_end, length): the wall for numba kernels such as :func:`slide`."""
+        return self._kind, self._geo, self._s0, self._n_end, self.length
+
     def point_at(self, s: np.ndarray | float) -> np.ndarray:
         """Wall point(s) at arclength ``s`` from the outlet edge (clipped to the wall)."""
         return self.point_normal_at(s)[0]
@@ -252,6 +257,39 @@ def _point_at(s, kind, geo, s0, pts, nrm):
             tr, tz = -sg * math.sin(th), sg * math.cos(th)
         nrm[j, 0] = tz
         nrm[j, 1] = -tr
+
+
+@numba.njit(cache=True)
+def slide(points, s_new, kind, geo, s0, n_end, length, out):
+    """Each point carried along the wall to arclength ``s_new`` (clipped to the wall), at its
+    present normal gap (0 for a point in or beyond the wall): ``out`` = wall(s) − gap·n(s).
+    The wall is given by :attr:`Wall.arrays`."""
+    n = points.shape[0]
+    d = np.empty(n)
+    q = np.empty((n, 2))
+    nrm = np.empty((n, 2))
+    s = np.empty(n)
+    piece = np.empty(n, np.int64)
+    _project(points, kind, geo, s0, n_end, d, q, nrm, s, piece)
+    _point_at(np.minimum(np.maximum(s_new, 0.0), length), kind, geo, s0, q, nrm)
+    for j in range(n):
+        gap = max(d[j], 0.0)
+        out[j, 0] = q[j, 0] - gap * nrm[j, 0]
+        out[j, 1] = q[j, 1] - gap * nrm[j, 1]
+
+
+@numba.njit(cache=True)
+def arclength_of(point, kind, geo, s0, n_end):
+    """Arclength of the closest wall point to one point (r, z)."""
+    p = np.empty((1, 2))
+    p[0, 0], p[0, 1] = point[0], point[1]
+    d = np.empty(1)
+    q = np.empty((1, 2))
+    nrm = np.empty((1, 2))
+    s = np.empty(1)
+    piece = np.empty(1, np.int64)
+    _project(p, kind, geo, s0, n_end, d, q, nrm, s, piece)
+    return s[0]
 
 
 @numba.njit(cache=True)

@@ -232,7 +232,7 @@ class Remapper:
                                                  self._ghosted(2, 1 + k, fill=1.0))
         self._work = w = {
             "k": k, "R": R, "grads": grads, "Rpm": Rpm, "vec": {"R": vR, "grads": vgrads, "Rpm": vRpm},
-            "cen1": np.zeros((na, 2)), "low": np.zeros((nf, 1 + k)), "A": np.zeros((nf, 1 + k)),
+            "cen1": np.zeros((na, 2)), "low": np.zeros((nf, 1)), "A": np.zeros((nf, 1 + k)),
             "E": np.zeros((no, 1 + k)), "mnew": np.zeros(no), "qmin": np.zeros((no, 1 + k)),
             "pp": np.zeros((no, 1 + k)), "pm": np.zeros((no, 1 + k)),
             "qmax": np.zeros((no, 1 + k)), "fmass": np.zeros(nf), "rho_old": np.zeros(no), "rho_new": np.zeros(no),
@@ -271,7 +271,7 @@ class Remapper:
         # stage 2: intensive variables, mass-weighted, with the final mass fluxes; columns 1..k
         if k:
             _value_stage_low(fl, fr, fmass, R, grads, self._cen0, self._xf, rho_old, self._vol0, mnew, ho, no, E,
-                             low, A, Rpm, qmin, qmax, pp, pm)
+                             A, Rpm, qmin, qmax, pp, pm)
             if bounds is not None:
                 np.minimum(bounds[0], qmin[:, 1:], out=bounds[0])
                 np.maximum(bounds[1], qmax[:, 1:], out=bounds[1])
@@ -408,10 +408,10 @@ def _swept(x0, x1, fnodes, out, xf):
         out[f, 2] = mz
         # the r-weighted centroid of the swept region; its 4-point mean where the region is
         # degenerate (no motion, or a bow-tie whose halves cancel)
-        L = math.sqrt((p1r - p0r) ** 2 + (p1z - p0z) ** 2)
-        D = max(math.sqrt((p3r - p0r) ** 2 + (p3z - p0z) ** 2), math.sqrt((p2r - p1r) ** 2 + (p2z - p1z) ** 2))
-        ravg = 0.25 * (abs(p0r) + abs(p1r) + abs(p2r) + abs(p3r)) + L
-        if abs(m0) > 1e-8 * ravg * L * D:
+        L2 = (p1r - p0r) ** 2 + (p1z - p0z) ** 2
+        D2 = max((p3r - p0r) ** 2 + (p3z - p0z) ** 2, (p2r - p1r) ** 2 + (p2z - p1z) ** 2)
+        ravg = 0.25 * (abs(p0r) + abs(p1r) + abs(p2r) + abs(p3r)) + math.sqrt(L2)
+        if m0 * m0 > 1e-16 * ravg * ravg * L2 * D2:  # |m0| > 1e-8 r̄ L D, squared
             xf[f, 0] = mr / m0
             xf[f, 1] = mz / m0
         else:
@@ -511,16 +511,20 @@ def _mass_stage_low(fl, fr, R, grads, cen, mom, vol0, vol1, ho, n_owned, E, low,
     """Stage 1, low order: donor-cell mass fluxes ρ_up δV into ``low[:, 0]``, the masses they
     leave in ``E[:, 0]``; high order: the upwind linear reconstruction integrated exactly over
     the swept region (from its moments), the difference in ``A[:, 0]``; Zalesak's limiters for
-    ρ ∈ [min, max] of the neighbourhood on the new volume. Column 0 of the work arrays."""
+    ρ ∈ [min, max] of the neighbourhood on the new volume. Column 0 of the work arrays.
+
+    The same pass over the edges gathers the bounds [qmin, qmax] (cell and edge neighbours)
+    of every column, at any order: stage 2 and the quadrature redistribution use them too."""
+    k1 = R.shape[1]
     for c in range(n_owned):
         rho_old[c] = R[c, 0]
         E[c, 0] = R[c, 0] * vol0[c]
-        qmin[c, 0] = qmax[c, 0] = R[c, 0]
+        for j in range(k1):
+            qmin[c, j] = qmax[c, j] = R[c, j]
         pp[c, 0] = pm[c, 0] = 0.0
     for f in range(fl.shape[0]):
         l, r = fl[f], fr[f]
-        if ho:
-            _face_bounds(l, r, R, 0, 1, n_owned, qmin, qmax)
+        _face_bounds(l, r, R, 0, k1, n_owned, qmin, qmax)
         m0 = mom[f, 0]
         d = l if m0 > 0.0 else r
         if d < 0 or m0 == 0.0 or l == CLOSED or r == CLOSED:
@@ -548,45 +552,45 @@ def _mass_stage_low(fl, fr, R, grads, cen, mom, vol0, vol1, ho, n_owned, E, low,
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def _value_stage_low(fl, fr, fmass, R, grads, cen, xf, rho_old, vol0, mnew, ho, n_owned, E, low, A, Rpm, qmin,
-                     qmax, pp, pm):
+def _value_stage_low(fl, fr, fmass, R, grads, cen, xf, rho_old, vol0, mnew, ho, n_owned, E, A, Rpm, qmin, qmax,
+                     pp, pm):
     """Stage 2, low order: F·Q_up with the final mass fluxes F (columns 1..k of E hold the
-    totals m Q); high order: F·Q at the swept region's centroid; limiters for Q in bounds.
-    The bounds [qmin, qmax] (cell and edge neighbours) are computed at any order."""
+    totals m Q); high order: F·Q at the swept region's centroid; limiters for Q in the
+    bounds [qmin, qmax] that stage 1 gathered."""
     k1 = R.shape[1]
     for c in range(n_owned):
         m = rho_old[c] * vol0[c]
         for j in range(1, k1):
             E[c, j] = m * R[c, j]
-            qmin[c, j] = qmax[c, j] = R[c, j]
             pp[c, j] = pm[c, j] = 0.0
     for f in range(fl.shape[0]):
         l, r = fl[f], fr[f]
-        _face_bounds(l, r, R, 1, k1, n_owned, qmin, qmax)
         F = fmass[f]
         d = l if F > 0.0 else r
         if d < 0 or F == 0.0:
             for j in range(1, k1):
-                low[f, j] = 0.0
                 A[f, j] = 0.0
             continue
+        lown = 0 <= l < n_owned
+        rown = 0 <= r < n_owned
+        dr = xf[f, 0] - cen[d, 0]
+        dz = xf[f, 1] - cen[d, 1]
         for j in range(1, k1):
-            lo = F * R[d, j]
-            a = 0.0
-            if ho:
-                a = F * (grads[d, j, 0] * (xf[f, 0] - cen[d, 0]) + grads[d, j, 1] * (xf[f, 1] - cen[d, 1]))
-            low[f, j] = lo
+            lo = F * R[d, j]  # the low-order flux goes straight into the totals
+            a = F * (grads[d, j, 0] * dr + grads[d, j, 1] * dz) if ho else 0.0
             A[f, j] = a
             # Zalesak's sums of the antidiffusive fluxes into (pp) and out of (pm) each cell
             # (branch-free: the sign of a is data, not a pattern the CPU can predict)
-            if 0 <= l < n_owned:
+            ap = max(a, 0.0)
+            am = min(a, 0.0)
+            if lown:
                 E[l, j] -= lo
-                pm[l, j] -= max(a, 0.0)
-                pp[l, j] -= min(a, 0.0)
-            if 0 <= r < n_owned:
+                pm[l, j] -= ap
+                pp[l, j] -= am
+            if rown:
                 E[r, j] += lo
-                pp[r, j] += max(a, 0.0)
-                pm[r, j] += min(a, 0.0)
+                pp[r, j] += ap
+                pm[r, j] += am
     if ho:
         _limiters(E, mnew, qmin, qmax, pp, pm, 1, k1, n_owned, Rpm)
 

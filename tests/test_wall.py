@@ -136,3 +136,26 @@ def test_projection_matches_brute_force():
     inside = pts[:, 0] < wall.radius_at(np.clip(pts[:, 1], 0.0, wall.end[1]))
     sel = (pts[:, 1] > 0.0) & (np.abs(p.distance) > 1e-9)
     assert np.array_equal(p.distance[sel] > 0, inside[sel])
+
+
+@pytest.mark.parametrize("fillet", [0.0, 1.0])
+def test_slide_keeps_the_gap_and_reaches_the_arclength(fillet):
+    """The ALE smoother's wall rule (wall.slide): a node moved along the wall to a new
+    arclength keeps its normal gap; a node beyond the wall lands on it (gap 0)."""
+    from silo_dolfinx.geometry.wall import slide
+
+    wall = bin_hopper(fillet)
+    s_old = np.array([0.05, 0.3, 0.6, L_HOP - 0.01, 1.5])
+    gap = np.array([0.01, 0.0, 0.02, 0.005, -0.003])  # the last one penetrates
+    p, n = wall.point_normal_at(s_old)
+    pts = p - gap[:, None] * n
+    s_new = s_old + np.array([0.1, -0.2, 0.9, 0.03, 5.0])  # across the transition; past the top (clipped)
+    out = np.empty_like(pts)
+    slide(pts, s_new, *wall.arrays, out)
+    q = wall.project(out)
+    want_s = np.clip(s_new, 0.0, wall.length)
+    assert np.allclose(q.distance, np.maximum(gap, 0.0), atol=TOL, rtol=0)
+    # arclength of the foot point; near the abrupt corner a node with a gap projects to the
+    # corner itself when it sits in the corner's normal fan, so compare the wall point instead
+    assert np.allclose(out + np.maximum(gap, 0.0)[:, None] * wall.point_normal_at(want_s)[1],
+                       wall.point_at(want_s), atol=TOL, rtol=0)

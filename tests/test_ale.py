@@ -111,15 +111,20 @@ def test_remap_conserves_and_creates_no_extrema(comm, order, field):
     assert d["rho_dev"] < 1e-12
 
 
-@pytest.mark.parametrize("order,rate", [(1, 0.85), (2, 1.8)])
-def test_remap_order_of_accuracy(comm, order, rate):
-    """Observed L1 order on smooth data at h = 1/16 → 1/32 → 1/64, the motion refined with
-    the mesh (one remap per cell width). Measured: donor cell 0.89, 0.94; limited second
-    order 2.41, 2.16. Bounds: the issue's ≥ 1.8 for second order; 0.85 for first order
-    (asymptotically 1, pre-asymptotic at these sizes)."""
-    errs = [_remap_run(comm, n, order, _smooth)["err"] for n in (16, 32, 64)]
-    rates = [math.log2(errs[i] / errs[i + 1]) for i in range(2)]
-    assert min(rates) >= rate, (errs, rates)
+@pytest.mark.parametrize("order", [1, 2])
+def test_remap_order_of_accuracy(comm, order):
+    """Observed L1 order on smooth data, the motion refined with the mesh (one remap per cell
+    width). Second order, h = 1/16 → 1/32 → 1/64: measured 2.41, 2.16; the issue's bound
+    ≥ 1.8. Donor cell, h = 1/16 … 1/128: measured 0.89, 0.94, 0.97 (and 0.986 at 1/256),
+    first order reached from below as the mesh is refined; asserted: the rate rises and the
+    finest pair is within 5 % of 1."""
+    sizes = (16, 32, 64, 128) if order == 1 else (16, 32, 64)
+    errs = [_remap_run(comm, n, order, _smooth)["err"] for n in sizes]
+    rates = [math.log2(errs[i] / errs[i + 1]) for i in range(len(sizes) - 1)]
+    if order == 1:
+        assert all(b > a for a, b in zip(rates, rates[1:])) and rates[-1] >= 0.95, (errs, rates)
+    else:
+        assert min(rates) >= 1.8, (errs, rates)
 
 
 def test_remap_discontinuous_field_first_order_is_more_diffusive(comm):

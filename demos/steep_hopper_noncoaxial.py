@@ -125,13 +125,11 @@ if comm.rank == 0:
 # 0.047 lowers them by up to 6 % at the lowest station; 0.014 raises them by 4-20 % between
 # 0.4 and 1.4 m (the thesis' trend, though not at the lowest station, 0.78) — but there the
 # flow slows (28.7 against 37.5 kg/s) because the material at the outlet shears without end
-# (ε̄p 17 against 3.6 coaxial) and, dilating at ψ = 10°, thins to 45 kg/m³; 0.005 (not run
+# (ε̄p 17-18 against 3.6 coaxial) and, dilating at ψ = 10°, thins to 41-45 kg/m³; 0.005 (not run
 # here) tears the outlet region apart. The thesis' trend comes with an outlet region that no
 # granular solid would show.
 
 # +
-
-
 def end_state(name):
     """(mass flow of the last 2 s (kg/s), min cell density, max ε̄p, min scaled Jacobian)."""
     with open(OUT / name / "outlet.csv") as f:

@@ -200,6 +200,8 @@ def _run(args) -> int:
         print(f"{args.out}: {summary['status']}; {summary['steps']:,} steps, simulated {summary['simulated_time']:.4g} s "
               f"in {summary['wall_clock_s']:.1f} s ({summary['steps_per_second']:,.0f} steps/s); energy balance "
               f"error {100 * summary['energy_balance_error_max']:.3f} % (max)")
+        for w in summary["warnings"][len(scene.warnings):]:
+            print(f"warning: {w}", file=sys.stderr)
     return 0
 
 

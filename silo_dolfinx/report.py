@@ -453,6 +453,8 @@ class Report:
         lines += ["", "## Figures", ""]
         for name, caption in self.figures:
             lines += [f"![{caption}]({name})", "", caption, ""]
+        if self.summary.get("warnings"):
+            lines += ["## Warnings", ""] + [f"- {w}" for w in self.summary["warnings"]] + [""]
         if self.missing:
             lines += ["## Not available", ""] + [f"- {m}" for m in self.missing] + [""]
         path = self.folder / "report.md"

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.contact import COULOMB, NONE, STICK, FrictionLaw, WallContact
 from silo_dolfinx.geometry.mesher import FACET_TAGS, SiloMesh, mesh_scene
 from silo_dolfinx.geometry.wall import Segment, Wall
@@ -420,6 +421,7 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> di
         if scene.discharge.mode != "none":
             stages.append(_discharge(model, recorder, progress))
         e = s.global_energy()
+        results.summary["warnings"] += _dilation_warnings(scene, stages)
         results.update(stages=stages, steps=s.steps, rejected_steps=s.rejected, simulated_time=s.t,
                        energy={k: getattr(e, k) for k in ("kinetic", "elastic", "plastic", "viscous", "damping",
                                                           "gravity", "external", "contact")},
@@ -461,7 +463,28 @@ def _advance(model: SiloModel, t_end: float, stage: str, recorder: Recorder, pro
 def _stage_record(name: str, t0: float, model: SiloModel, steps0: int, wall0: float) -> dict:
     s = model.solver
     return {"name": name, "t_start": t0, "t_end": s.t, "steps": s.steps - steps0,
-            "wall_clock_s": round(time.time() - wall0, 3), "dt_last": s.dt_prev}
+            "wall_clock_s": round(time.time() - wall0, 3), "dt_last": s.dt_prev,
+            "density_min": reduce_scalar(s.comm, float(s.rho_cell.min(initial=np.inf)), MPI.MIN)}
+
+
+DILATION_WARNING = 0.5  # a cell below this fraction of the solid's density is no granular solid
+
+
+def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
+    """A warning for each stage that ended with a cell dilated below half the solid's density:
+    Drucker-Prager with a constant ψ > 0 dilates for as long as it shears (e.g. at an outlet)."""
+    m = scene.material
+    rho0 = m.density
+    psi = f"dilation_angle = {m.dilation_angle:g}" if "dilation_angle" in m else "this material"
+    out = []
+    for st in stages:
+        if st["density_min"] < DILATION_WARNING * rho0:
+            out.append(f"[material] by the end of the {st['name']} stage a cell had dilated to "
+                       f"{st['density_min']:.4g} kg/m³ ({100 * st['density_min'] / rho0:.0f} % of density = {rho0:g}): "
+                       f"with {psi} the solid dilates for as long as it shears. Set material.max_dilation "
+                       "(e.g. 0.05: a critical state) or dilation_angle = 0 if the flowing solid should keep its "
+                       "density.")
+    return out
 
 
 def _fill(model: SiloModel, recorder: Recorder, progress) -> list[dict]:
@@ -469,12 +492,12 @@ def _fill(model: SiloModel, recorder: Recorder, progress) -> list[dict]:
     s = model.solver
     f = sc.fill
     s.numerics.damping = model.fill_damping
+    t0, steps0, wall0 = s.t, s.steps, time.time()
     if f.method == "k0":
         model.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
         model.set_geostatic_stress(f.k0)
         recorder.stage_end("fill")
-        return [{"name": "fill", "method": "k0", "t_start": 0.0, "t_end": 0.0, "steps": 0}]
-    t0, steps0, wall0 = s.t, s.steps, time.time()
+        return [dict(_stage_record("fill", t0, model, steps0, wall0), method="k0")]
     layers = model.layers()
     n = len(layers)
     T = f.duration / n

@@ -84,7 +84,7 @@ def test_report_writes_every_figure_and_the_table(synthetic):
                  "field_q_over_p.png", "field_velocity.png"):
         assert (synthetic / name).is_file() and (synthetic / name).stat().st_size > 5000, name
         assert f"({name})" in text, name
-    assert "## Not available" not in text
+    assert "## Not available" not in text and "## Warnings" not in text  # the summary has none
     # key numbers: the spectrum finds the two synthetic frequencies, Beverloo is compared
     row = next(line for line in text.splitlines() if line.startswith("| spectral peaks"))
     peaks = sorted(float(v.split()[0]) for v in row.split("|")[2].split("(")[0].split(","))
@@ -101,9 +101,11 @@ def test_report_on_a_partial_folder(synthetic):
         f.unlink()
     s = json.loads((synthetic / "summary.json").read_text())
     s["status"] = "running"
+    s["warnings"] = ["[material] by the end of the discharge stage a cell had dilated to 415 kg/m³"]
     (synthetic / "summary.json").write_text(json.dumps(s))
     text = make_report(synthetic).read_text()
     assert "| status | running |" in text
+    assert "## Warnings\n\n- [material] by the end of the discharge stage a cell had dilated to 415" in text
     assert "## Not available" in text and "outlet flow" in text and "field renders" in text
     assert (synthetic / "wall_pressure_fill.png").is_file()
 

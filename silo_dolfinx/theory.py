@@ -368,6 +368,19 @@ def drucker_prager_active_k(friction_angle: float) -> float:
     return (3.0 - t) / (3.0 + 2.0 * t)
 
 
+def drucker_prager_compression_angle(friction_angle: float) -> float:
+    """Mohr–Coulomb friction angle φ (degrees) with the same limit as a cohesionless
+    Drucker–Prager solid in axisymmetric compression (σ_rr = σ_θθ, the state of a fill):
+    sin φ = 3 tan β/(6 + tan β). Its active ratio (1 − sin φ)/(1 + sin φ) is
+    :func:`drucker_prager_active_k`. The φ to put into Walker's or Jenike's theories when they
+    are compared with this model: β = 30° gives 15.3°, β = 35° 18.3° (not β itself). Valid for
+    0 ≤ tan β < 3."""
+    t = drucker_prager_limit_ratio(friction_angle)
+    if t >= 3.0:
+        raise ValueError(f"friction_angle = {friction_angle!r}: tan β must be below 3")
+    return math.degrees(math.asin(3.0 * t / (6.0 + t)))
+
+
 def drucker_prager_wall_shear_limit(friction_angle: float) -> float:
     """Largest shear-to-normal stress ratio τ/σ_n a cohesionless Drucker-Prager solid can carry
     on a plane (the wall): maximising τ under q = p tan β with the two other normal stresses

@@ -93,6 +93,19 @@ def test_janssen_limits():
     assert np.allclose(pv, pv[0], rtol=1e-12)
 
 
+@pytest.mark.parametrize("beta", [20.0, 30.0, 35.0, 45.0])
+def test_drucker_prager_compression_angle(beta):
+    """The matched Mohr–Coulomb φ has the Drucker–Prager limit in axisymmetric compression:
+    a Mohr–Coulomb state σ1 = σv, σ2 = σ3 = K_a σv (K_a = (1 − sin φ)/(1 + sin φ)) lies on the
+    cone q = p tan β, and K_a is the Drucker–Prager active ratio (round-off)."""
+    phi = math.radians(theory.drucker_prager_compression_angle(beta))
+    ka = (1 - math.sin(phi)) / (1 + math.sin(phi))
+    q, p = 1 - ka, (1 + 2 * ka) / 3
+    assert abs(q / p - math.tan(math.radians(beta))) < 1e-12
+    assert abs(ka - theory.drucker_prager_active_k(beta)) < 1e-12
+    assert abs(theory.drucker_prager_compression_angle(30.0) - 15.27) < 0.01  # the ch. 4 solid
+
+
 def test_en1991_filling_ratio_is_the_thesis_form():
     mu, a = 0.67, 20.0
     F_thesis = (1 + 0.8 * mu / math.tan(math.radians(a))) / (1 + mu / math.tan(math.radians(a)))

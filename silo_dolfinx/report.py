@@ -106,7 +106,12 @@ class Report:
             if phi and math.atan(mu) < math.radians(phi):
                 kappa = 1 if stage == "discharge" else -1
                 pn, _ = theory.walker_hopper(zz, phi, mu, alpha, g.outlet_radius, g.height, gamma, kappa)
-                out.append((f"Walker κ = {kappa:+d}", pn))
+                out.append((f"Walker κ = {kappa:+d}, φ = β", pn))
+                # the same theory with the Mohr–Coulomb angle of the simulated Drucker–Prager solid
+                phi_dp = theory.drucker_prager_compression_angle(phi)
+                if math.atan(mu) < math.radians(phi_dp):
+                    pn, _ = theory.walker_hopper(zz, phi_dp, mu, alpha, g.outlet_radius, g.height, gamma, kappa)
+                    out.append((f"Walker κ = {kappa:+d}, φ = {phi_dp:.1f}° (DP-matched)", pn))
                 F, _ = theory.walker_parameters(phi, mu, alpha, kappa)
                 sv = theory.hopper_vertical_stress(zz, theory.mclean_m(mu, alpha), alpha, g.outlet_radius, g.height,
                                                    gamma)

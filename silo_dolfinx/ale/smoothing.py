@@ -194,9 +194,10 @@ class Smoother:
         """Boundary nodes on their targets, interior nodes at the predictor (all local rows)."""
         x = (self.x_prev if self.predictor == "previous" else xL).copy()
         pts = self._top_polyline(xL)
-        _place_boundary(x, xL, self.X, pts, self.outlet, self.wall_corner, self.axis_corner, self.wall_nodes,
-                        self.S0, self.anchors, self.S0_top, self.axis_nodes, self.Z0, self.Z0_top, self.top_nodes,
-                        self.top_fraction, *self.wall.arrays)
+        s_top, z_top = self._top_corners(pts)
+        _place_boundary(x, xL, self.X, pts, s_top, z_top, self.outlet, self.wall_corner, self.axis_corner,
+                        self.wall_nodes, self.S0, self.anchors, self.S0_top, self.axis_nodes, self.Z0, self.Z0_top,
+                        self.top_nodes, self.top_fraction, *self.wall.arrays)
         return x
 
     def smooth(self, xL: np.ndarray) -> np.ndarray:
@@ -228,11 +229,12 @@ class Smoother:
 
 
 @numba.njit(cache=True)
-def _place_boundary(x, xL, X, pts, outlet, corners_wall, corners_axis, wall_nodes, S0, anchors, S0_top, axis_nodes,
-                    Z0, Z0_top, top_nodes, top_fraction, kind, geo, s0, n_end, length):
+def _place_boundary(x, xL, X, pts, s_top, z_top, outlet, corners_wall, corners_axis, wall_nodes, S0, anchors, S0_top,
+                    axis_nodes, Z0, Z0_top, top_nodes, top_fraction, kind, geo, s0, n_end, length):
     """The boundary rules of the module docstring, in place on ``x``: outlet nodes back to
     their reference positions ``X``, top corners Lagrangian (``xL``), wall / axis / top nodes
-    spread from the current top polyline ``pts`` (axis corner first, wall corner last)."""
+    spread from the current top polyline ``pts`` (axis corner first, wall corner last), whose
+    wall corner is at arclength ``s_top`` and axis corner at height ``z_top``."""
     for i in outlet:
         x[i, 0], x[i, 1] = X[i, 0], X[i, 1]
     for i in corners_wall:
@@ -240,8 +242,6 @@ def _place_boundary(x, xL, X, pts, outlet, corners_wall, corners_axis, wall_node
     for i in corners_axis:
         x[i, 0], x[i, 1] = xL[i, 0], xL[i, 1]
     m = pts.shape[0]
-    s_top = arclength_of(pts[m - 1], kind, geo, s0, n_end)  # the wall corner's arclength
-    z_top = pts[0, 1]  # the axis corner's height
     # wall: Eulerian below the highest anchor under the top corner, stretched above it
     nw = wall_nodes.size
     if nw:

@@ -157,13 +157,7 @@ class Wall:
     def project(self, points: np.ndarray) -> Projection:
         """Closest-point projection of ``points`` (shape (n, 2) or (n, 3); r, z first)."""
         p = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, :2])
-        n = p.shape[0]
-        d = np.empty(n)
-        q = np.empty((n, 2))
-        nrm = np.empty((n, 2))
-        s = np.empty(n)
-        piece = np.empty(n, np.int64)
-        _project(p, self._kind, self._geo, self._s0, self._n_end, d, q, nrm, s, piece)
+        d, q, nrm, s, piece = _projected(p, self._kind, self._geo, self._s0, self._n_end)
         tan = np.column_stack((-nrm[:, 1], nrm[:, 0]))
         return Projection(d, q, nrm, tan, s, piece)
 
@@ -264,15 +258,9 @@ def slide(points, s_new, kind, geo, s0, n_end, length, out):
     """Each point carried along the wall to arclength ``s_new`` (clipped to the wall), at its
     present normal gap (0 for a point in or beyond the wall): ``out`` = wall(s) − gap·n(s).
     The wall is given by :attr:`Wall.arrays`."""
-    n = points.shape[0]
-    d = np.empty(n)
-    q = np.empty((n, 2))
-    nrm = np.empty((n, 2))
-    s = np.empty(n)
-    piece = np.empty(n, np.int64)
-    _project(points, kind, geo, s0, n_end, d, q, nrm, s, piece)
+    d, q, nrm, _, _ = _projected(points, kind, geo, s0, n_end)
     _point_at(np.minimum(np.maximum(s_new, 0.0), length), kind, geo, s0, q, nrm)
-    for j in range(n):
+    for j in range(points.shape[0]):
         gap = max(d[j], 0.0)
         out[j, 0] = q[j, 0] - gap * nrm[j, 0]
         out[j, 1] = q[j, 1] - gap * nrm[j, 1]
@@ -283,13 +271,20 @@ def arclength_of(point, kind, geo, s0, n_end):
     """Arclength of the closest wall point to one point (r, z)."""
     p = np.empty((1, 2))
     p[0, 0], p[0, 1] = point[0], point[1]
-    d = np.empty(1)
-    q = np.empty((1, 2))
-    nrm = np.empty((1, 2))
-    s = np.empty(1)
-    piece = np.empty(1, np.int64)
+    return _projected(p, kind, geo, s0, n_end)[3][0]
+
+
+@numba.njit(cache=True)
+def _projected(p, kind, geo, s0, n_end):
+    """:func:`_project` into new arrays: (distance, closest, normal, s, piece)."""
+    n = p.shape[0]
+    d = np.empty(n)
+    q = np.empty((n, 2))
+    nrm = np.empty((n, 2))
+    s = np.empty(n)
+    piece = np.empty(n, np.int64)
     _project(p, kind, geo, s0, n_end, d, q, nrm, s, piece)
-    return s[0]
+    return d, q, nrm, s, piece
 
 
 @numba.njit(cache=True)

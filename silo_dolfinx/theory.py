@@ -381,6 +381,19 @@ def drucker_prager_compression_angle(friction_angle: float) -> float:
     return math.degrees(math.asin(3.0 * t / (6.0 + t)))
 
 
+def drucker_prager_cone_for_mohr_coulomb(friction_angle: float) -> float:
+    """Drucker–Prager slope β (degrees) whose cone meets the Mohr–Coulomb cone of angle φ in
+    axisymmetric compression: tan β = 6 sin φ/(3 − sin φ), the inverse of
+    :func:`drucker_prager_compression_angle`. φ = 30° gives 50.2°, 35° 54.8°. This is the cone
+    the thesis' numbers behave like (outlet velocity, Janssen K = 0.38, a fill that stays
+    elastic) if its friction angles are read as Mohr–Coulomb angles; see README. Valid for
+    0 ≤ φ < 90°."""
+    if not 0.0 <= friction_angle < 90.0:
+        raise ValueError(f"friction_angle = {friction_angle!r}: must be in [0, 90) degrees")
+    s = math.sin(math.radians(friction_angle))
+    return math.degrees(math.atan(6.0 * s / (3.0 - s)))
+
+
 def drucker_prager_wall_shear_limit(friction_angle: float) -> float:
     """Largest shear-to-normal stress ratio τ/σ_n a cohesionless Drucker-Prager solid can carry
     on a plane (the wall): maximising τ under q = p tan β with the two other normal stresses

@@ -106,6 +106,17 @@ def test_drucker_prager_compression_angle(beta):
     assert abs(theory.drucker_prager_compression_angle(30.0) - 15.27) < 0.01  # the ch. 4 solid
 
 
+@pytest.mark.parametrize("phi", [15.0, 30.0, 35.0, 40.0])
+def test_drucker_prager_cone_for_mohr_coulomb(phi):
+    """The cone matched to a Mohr–Coulomb φ: the active Mohr–Coulomb state lies on it, and it
+    inverts drucker_prager_compression_angle (round-off); φ = 30° → 50.19°, 35° → 54.81°."""
+    beta = theory.drucker_prager_cone_for_mohr_coulomb(phi)
+    ka = (1 - math.sin(math.radians(phi))) / (1 + math.sin(math.radians(phi)))
+    assert abs(3 * (1 - ka) / (1 + 2 * ka) - math.tan(math.radians(beta))) < 1e-12
+    assert abs(theory.drucker_prager_compression_angle(beta) - phi) < 1e-10
+    assert abs(theory.drucker_prager_cone_for_mohr_coulomb(30.0) - 50.19) < 0.01
+
+
 def test_en1991_filling_ratio_is_the_thesis_form():
     mu, a = 0.67, 20.0
     F_thesis = (1 + 0.8 * mu / math.tan(math.radians(a))) / (1 + mu / math.tan(math.radians(a)))

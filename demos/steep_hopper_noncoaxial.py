@@ -172,15 +172,16 @@ if args.sweep:
 # The scenes keep Table 8-2's *ratio* H_nc/G on the ch. 4 solid (E 5.5e5 Pa). With
 # `--table-8-2` both runs are repeated with Table 8-2's material itself: ρ 1500 kg/m³,
 # G 3.8e4 kPa (E 1.0e5 kPa of Table 8-1's case 1, so ν = 0.316), H_nc 1.0e4 kPa — 180 times
-# stiffer, 2,000 steps/s instead of ~20,000. At yield the non-coaxial term adds the plastic
+# stiffer, so an 11 times smaller Δt. At yield the non-coaxial term adds the plastic
 # strain Δs_t/H_nc, Δs_t the deviatoric stress change tangential to the cone; in the hopper
 # that change is of the order of the stress itself (ρ g h, 5–10 kPa), so the extra strain is
 # ~1e-3 — comparable to the strains of the first moments after opening and negligible against
 # the strains of flow. In simple shear (σ_y = 100 kPa) the same H_nc matters because the whole
 # test lives at strains of a few per cent. Measured (2 ranks, 3 s discharge): the ratio is
 # 0.999–1.000 by station over the whole discharge and 1.000 over the last 2 s (serially, with
-# the scene's stations: 0.984–1.004 in the first 0.5 s after opening, 0.999–1.001 later). The thesis' trend is therefore not a property of the non-coaxial
-# model at Table 8-2's moduli; it needs H_nc near the stress level (the sweep above).
+# the scene's stations: 0.984–1.004 in the first 0.5 s after opening, 0.999–1.001 later).
+# The thesis' trend is therefore not a property of the non-coaxial model at Table 8-2's
+# moduli; it needs H_nc near the stress level (the sweep above).
 
 # +
 if args.table82:

@@ -99,8 +99,8 @@ def test_velocity_dependent_law_follows_eq_7_1_along_a_slip_ramp(comm):
 # ------------------------------------------------------------------ the flat-bottomed silo (ch. 6)
 def fill_flat_bottom(out, comm, mu, scene="flat_bottom_ch6"):
     sc = load_scene(SCENES / f"{scene}.toml", ["geometry.element_size=0.035", 'discharge.mode="none"',
-                                                      "fill.damping=0.3", "store.duration=1.0",
-                                                      "output.field_interval=100", f"wall.mu={mu}"])
+                                               "fill.damping=0.3", "store.duration=1.0",
+                                               "output.field_interval=100", f"wall.mu={mu}"])
     summary = run(sc, out, comm, progress_every=1e9)
     comm.barrier()
     wall = read_profile(out / "wall_profile_store.csv")

@@ -358,6 +358,22 @@ def test_controlled_discharge_follows_eq_3_14(shared_tmp, comm):
     assert summary["stages"][-1]["mass_balance_error_max"] < 0.005
 
 
+def k0_discharge_velocity(scene, out, comm, sets=()):
+    """A ch. 4 scene on a 0.03 m mesh from a K0 state, discharged freely for 2 s: (scene,
+    mean outlet velocity over 1-2 s after opening)."""
+    from silo_dolfinx.simulation import run
+
+    sc = load_scene(SCENES / f"{scene}.toml",
+                    ['fill.method="k0"', "store.duration=0.0", "discharge.duration=2.0", "geometry.element_size=0.03",
+                     "ale.tracer_rows=0", "output.history_rate=50.0", "output.field_interval=100.0", *sets])
+    summary = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    assert summary["status"] == "completed"
+    o = read_csv(out / "outlet.csv")
+    t = o["t"] - o["t"][0]
+    return sc, o["mean_outlet_velocity"][(t >= 1.0) & (t <= 2.0)].mean()
+
+
 def test_smooth_hopper_discharges_at_the_hourglass_rate(shared_tmp, comm):
     """Free discharge of the ch. 4 hopper with a smooth wall and no dilation against the
     hourglass theory (theory.hourglass_discharge, 2.85 m/s mean over the outlet for β = 30°):
@@ -366,19 +382,9 @@ def test_smooth_hopper_discharges_at_the_hourglass_rate(shared_tmp, comm):
     field: uniform over spheres, top boundary a sphere); a wall with friction (the thesis'
     μ 0.267) drops it to ~1.7 m/s, which the smooth-wall theory does not cover."""
     from silo_dolfinx import theory
-    from silo_dolfinx.simulation import run
 
-    sc = load_scene(SCENES / "hopper_ch4.toml",
-                    ['fill.method="k0"', "store.duration=0.0", "discharge.duration=2.0", "geometry.element_size=0.03",
-                     'wall.friction="none"', "material.dilation_angle=0.0", "ale.tracer_rows=0",
-                     "output.history_rate=50.0", "output.field_interval=100.0"])
-    out = shared_tmp / "hourglass"
-    summary = run(sc, out, comm, progress_every=1e9)
-    comm.barrier()
-    assert summary["status"] == "completed"
-    o = read_csv(out / "outlet.csv")
-    t = o["t"] - o["t"][0]
-    v = o["mean_outlet_velocity"][(t >= 1.0) & (t <= 2.0)].mean()
+    sc, v = k0_discharge_velocity("hopper_ch4", shared_tmp / "hourglass", comm,
+                                  ['wall.friction="none"', "material.dilation_angle=0.0"])
     g = sc.geometry
     expect = theory.hourglass_discharge(sc.material.friction_angle, hopper_half_angle(g), g.outlet_radius, g.height)
     assert abs(v / expect["mean_outlet_velocity"] - 1.0) < 0.20, (v, expect["mean_outlet_velocity"])
@@ -393,18 +399,8 @@ def test_outlet_velocity_depends_on_the_reading_of_the_friction_angle(shared_tmp
     the thesis' mass flow ρ0·A·v is then within 15 % of Beverloo (32.5 kg/s). Measured on this
     0.03 m mesh: 1.61 and 0.96 m/s (ρ0·A·v 30.1 kg/s, −7 %)."""
     from silo_dolfinx import theory
-    from silo_dolfinx.simulation import run
 
-    sc = load_scene(SCENES / f"{scene}.toml",
-                    ['fill.method="k0"', "store.duration=0.0", "discharge.duration=2.0", "geometry.element_size=0.03",
-                     "ale.tracer_rows=0", "output.history_rate=50.0", "output.field_interval=100.0"])
-    out = shared_tmp / scene
-    summary = run(sc, out, comm, progress_every=1e9)
-    comm.barrier()
-    assert summary["status"] == "completed"
-    o = read_csv(out / "outlet.csv")
-    t = o["t"] - o["t"][0]
-    v = o["mean_outlet_velocity"][(t >= 1.0) & (t <= 2.0)].mean()
+    sc, v = k0_discharge_velocity(scene, shared_tmp / scene, comm)
     assert bar[0] < v < bar[1], v
     if scene.endswith("mohr_coulomb"):
         g = sc.geometry

@@ -374,24 +374,99 @@ def drucker_prager_compression_angle(friction_angle: float) -> float:
     sin φ = 3 tan β/(6 + tan β). Its active ratio (1 − sin φ)/(1 + sin φ) is
     :func:`drucker_prager_active_k`. The φ to put into Walker's or Jenike's theories when they
     are compared with this model: β = 30° gives 15.3°, β = 35° 18.3° (not β itself). Valid for
-    0 ≤ tan β < 3."""
-    t = drucker_prager_limit_ratio(friction_angle)
-    if t >= 3.0:
+    0 ≤ tan β < 3. (:func:`mohr_coulomb_angle` with the compression rule.)"""
+    if drucker_prager_limit_ratio(friction_angle) >= 3.0:
         raise ValueError(f"friction_angle = {friction_angle!r}: tan β must be below 3")
-    return math.degrees(math.asin(3.0 * t / (6.0 + t)))
+    return mohr_coulomb_angle(friction_angle, "compression")
 
 
 def drucker_prager_cone_for_mohr_coulomb(friction_angle: float) -> float:
     """Drucker–Prager slope β (degrees) whose cone meets the Mohr–Coulomb cone of angle φ in
     axisymmetric compression: tan β = 6 sin φ/(3 − sin φ), the inverse of
-    :func:`drucker_prager_compression_angle`. φ = 30° gives 50.2°, 35° 54.8°. This is the cone
-    the thesis' numbers behave like (outlet velocity, Janssen K = 0.38, a fill that stays
-    elastic) if its friction angles are read as Mohr–Coulomb angles; see README. Valid for
-    0 ≤ φ < 90°."""
-    if not 0.0 <= friction_angle < 90.0:
-        raise ValueError(f"friction_angle = {friction_angle!r}: must be in [0, 90) degrees")
-    s = math.sin(math.radians(friction_angle))
-    return math.degrees(math.atan(6.0 * s / (3.0 - s)))
+    :func:`drucker_prager_compression_angle`. φ = 30° gives 50.2°, 35° 54.8°, 40° 58.6°. The
+    scenes' default reading of a friction angle (``material.cone = "compression"``)."""
+    return drucker_prager_cone(friction_angle, 0.0, "compression")[0]
+
+
+# How a Mohr–Coulomb angle becomes the slope β of the Drucker–Prager cone (q = p tan β + d,
+# q = √(3 J2), p the mean pressure, compression +); the scene key ``material.cone``.
+CONES = {
+    "compression": "the cones meet in axisymmetric compression (σ2 = σ3, a settling fill): "
+                   "tan β = 6 sin φ/(3 − sin φ); the outer cone",
+    "extension": "the cones meet in axisymmetric extension (σ1 = σ2): tan β = 6 sin φ/(3 + sin φ); "
+                 "the inner cone",
+    "plane_strain": "the same plane-strain limit load: associated flow (ψ = φ) tan β = 3√3 tan φ/"
+                    "√(9 + 12 tan² φ), otherwise tan β = √3 sin φ (the zero-dilation match); ψ by the "
+                    "associated formula",
+    "plane_strain_zero_dilation": "tan β = √3 sin φ and tan ψ_DP = √3 sin ψ (the thesis' ch. 8 choice: "
+                                  "the plane-strain match for ψ = 0)",
+    "beta": "no mapping: the angles are the Drucker–Prager slopes β and ψ themselves (the thesis' "
+            "stated convention, ch. 4.5: 30° → q/p = 0.577)",
+}
+
+
+def _cone_tan(angle: float, cone: str, associated: bool) -> float:
+    s, t = math.sin(math.radians(angle)), math.tan(math.radians(angle))
+    if cone == "compression":
+        return 6.0 * s / (3.0 - s)
+    if cone == "extension":
+        return 6.0 * s / (3.0 + s)
+    if cone == "plane_strain" and associated:
+        return 3.0 * math.sqrt(3.0) * t / math.sqrt(9.0 + 12.0 * t * t)
+    if cone in ("plane_strain", "plane_strain_zero_dilation"):
+        return math.sqrt(3.0) * s
+    return t  # "beta"
+
+
+def drucker_prager_cone(friction_angle: float, dilation_angle: float, cone: str = "compression"):
+    """(β, ψ_DP) in degrees: the Drucker–Prager friction and dilation slopes for Mohr–Coulomb
+    angles φ, ψ under the matching rule ``cone`` (a key of :data:`CONES`). ψ is mapped by the
+    same rule (plane strain: by its associated-flow formula, so that ψ = φ gives ψ_DP = β).
+    Valid for 0 ≤ ψ ≤ φ < 90° (``"beta"``: the angles are returned as they are)."""
+    if cone not in CONES:
+        raise ValueError(f"cone = {cone!r}: must be one of {', '.join(CONES)}")
+    if not 0.0 <= dilation_angle <= friction_angle < 90.0:
+        raise ValueError(f"angles φ = {friction_angle!r}, ψ = {dilation_angle!r}: need 0 ≤ ψ ≤ φ < 90 degrees")
+    if cone == "beta":
+        return float(friction_angle), float(dilation_angle)
+    associated = dilation_angle == friction_angle
+    beta = math.degrees(math.atan(_cone_tan(friction_angle, cone, associated)))
+    if associated:
+        return beta, beta
+    psi = math.degrees(math.atan(_cone_tan(dilation_angle, cone, True))) if dilation_angle > 0 else 0.0
+    return beta, psi
+
+
+def mohr_coulomb_angle(beta: float, cone: str = "compression", associated: bool = False) -> float:
+    """The Mohr–Coulomb angle φ (degrees) that :func:`drucker_prager_cone` maps to the slope β
+    under ``cone`` (its inverse; plane strain needs to know the flow rule). Raises where no φ
+    maps to β (e.g. plane strain, associated, needs tan β < 1.5)."""
+    if cone not in CONES:
+        raise ValueError(f"cone = {cone!r}: must be one of {', '.join(CONES)}")
+    t = math.tan(math.radians(beta))
+    if cone == "beta":
+        return float(beta)
+    if cone == "compression":
+        s = 3.0 * t / (6.0 + t)
+    elif cone == "extension":
+        s = 3.0 * t / (6.0 - t) if t < 6.0 else 2.0
+    elif cone == "plane_strain" and associated:
+        if t >= 1.5:
+            raise ValueError(f"beta = {beta!r}: plane strain (associated) needs tan β < 1.5")
+        return math.degrees(math.atan(3.0 * t / math.sqrt(27.0 - 12.0 * t * t)))
+    else:
+        s = t / math.sqrt(3.0)
+    if not 0.0 <= s < 1.0:
+        raise ValueError(f"beta = {beta!r}: no Mohr–Coulomb angle maps to it under cone = {cone!r}")
+    return math.degrees(math.asin(s))
+
+
+def janssen_k_en1991(friction_angle: float) -> float:
+    """EN 1991-4 (2006) lateral pressure ratio K = 1.1 (1 − sin φ_i) for a Mohr–Coulomb
+    angle of internal friction φ_i (degrees): 30° → 0.55, 35° → 0.47, 40° → 0.39."""
+    if not 0.0 < friction_angle < 90.0:
+        raise ValueError(f"friction_angle = {friction_angle!r}: must be in (0, 90) degrees")
+    return 1.1 * (1.0 - math.sin(math.radians(friction_angle)))
 
 
 def drucker_prager_wall_shear_limit(friction_angle: float) -> float:
@@ -399,9 +474,12 @@ def drucker_prager_wall_shear_limit(friction_angle: float) -> float:
     on a plane (the wall): maximising τ under q = p tan β with the two other normal stresses
     a·σ_n gives a = (9 + 2t²)/(9 − 4t²) and τ/σ_n = √([(1+2a)² t²/9 − (1 − a)²]/3), t = tan β.
     β = 35° gives 0.457: a wall with μ above this never slides; the solid next to it yields.
-    Valid for tan β < 1.5."""
+    A steeper cone (tan β ≥ 1.5, e.g. φ > 36.87° matched in compression) contains compressive
+    states with one principal stress zero (σ1 = σ2, σ3 = 0), whose Mohr circles reach every
+    ratio: with the tension cut-off of the return map (no tension in a cohesionless solid) the
+    limit is then unbounded (returns inf) and any wall friction can slide. Valid for β < 90°."""
     t = drucker_prager_limit_ratio(friction_angle)
     if t >= 1.5:
-        raise ValueError(f"friction_angle = {friction_angle!r}: tan β must be below 1.5")
+        return math.inf
     a = (9.0 + 2.0 * t * t) / (9.0 - 4.0 * t * t)
     return math.sqrt(((1 + 2 * a) ** 2 * t * t / 9.0 - (1 - a) ** 2) / 3.0)

@@ -186,3 +186,47 @@ def test_dilation_stops_at_the_critical_state():
             assert eps_c - 1e-12 <= vol_p <= eps_c + step
         else:
             assert vol_p > 3 * eps_c
+
+
+def _principal(sig):
+    """Largest principal stress (tension +) of (n, 4) axisymmetric stresses."""
+    c, h = 0.5 * (sig[:, 0] + sig[:, 1]), 0.5 * (sig[:, 0] - sig[:, 1])
+    return np.maximum(c + np.hypot(h, sig[:, 3]), sig[:, 2])
+
+
+@pytest.mark.parametrize("phi", [40.0, 50.0, 60.0])
+def test_tension_cutoff_of_steep_cones(phi):
+    """A cone steeper than tan β = 3/2 (Mohr-Coulomb φ > 36.87° matched in compression) admits
+    tensile principal stresses; after a return none exceeds the cut-off T = d/tan β (≤ the
+    cohesion), to round-off of the stress level; every state stays inside the cone; the
+    dissipation is non-negative; states already admissible are untouched. Without the
+    cut-off the same increments leave principal tensions of the order of the stresses."""
+    beta, psi = theory.drucker_prager_cone(phi, 10.0)
+    mat = DruckerPrager(E, NU, RHO, beta, psi, 1.0)
+    assert mat.tan_beta > 1.5 and 0.0 < mat.tension_cutoff <= mat.cohesion
+    sig, de = random_states(20000, seed=7, scale=5e4)
+    out, st, diss = run(mat, sig, de)
+    tol = 1e-10 * np.abs(sig).max()
+    assert np.all(_principal(out) <= mat.tension_cutoff + tol)
+    assert np.all(mat.yield_function(out) <= 1e-10 * np.abs(sig).max())
+    assert diss >= 0.0
+    t = trial(mat, sig, de)
+    fine = (mat.yield_function(t) <= 0) & (_principal(t) <= mat.tension_cutoff)
+    assert fine.sum() > 100 and np.allclose(out[fine], t[fine], rtol=1e-14, atol=1e-9)
+    cut = (mat.yield_function(t) <= 0) & (_principal(t) > mat.tension_cutoff)
+    assert cut.sum() > 20  # elastic trials beyond the cut-off are returned too
+    no_cut = DruckerPrager(E, NU, RHO, beta, psi, 1.0)
+    no_cut.tension_cutoff = math.inf
+    out2, _, _ = run(no_cut, sig, de)
+    assert _principal(out2).max() > 1e3  # Pa: what the cut-off removes
+
+
+def test_tension_cutoff_is_off_for_ordinary_cones():
+    """tan β ≤ 3/2: no admissible state has a principal stress beyond the apex tension d/tan β,
+    so there is no cut-off to evaluate (inf) and the return is the plain cone's."""
+    for beta in (30.0, 50.19, 56.3):
+        assert DruckerPrager(E, NU, RHO, beta, 10.0, 1.0).tension_cutoff == math.inf
+    mat = dp(50.19, 20.0)
+    sig, de = random_states(5000, seed=2)
+    out, _, _ = run(mat, sig, de)
+    assert np.all(_principal(out) <= mat.cohesion / mat.tan_beta + 1e-10 * np.abs(sig).max())

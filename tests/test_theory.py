@@ -180,3 +180,81 @@ def test_hourglass_discharge_solves_its_radial_momentum_equation():
 def test_inputs_outside_the_validity_range_are_refused(call):
     with pytest.raises(ValueError):
         call()
+
+
+# ---------------------------------------------------------------------------- the cone of a Mohr-Coulomb angle
+def _dp_ratio(s1, s2, s3):
+    """q/p of principal stresses (compression +)."""
+    p = (s1 + s2 + s3) / 3
+    q = math.sqrt(0.5 * ((s1 - s2) ** 2 + (s2 - s3) ** 2 + (s3 - s1) ** 2))
+    return q / p
+
+
+@pytest.mark.parametrize("cone", ["compression", "extension", "plane_strain", "plane_strain_zero_dilation", "beta"])
+@pytest.mark.parametrize("phi, psi", [(20.0, 0.0), (30.0, 10.0), (35.0, 35.0), (40.0, 10.0), (55.0, 20.0)])
+def test_cone_mapping_round_trips(cone, phi, psi):
+    """drucker_prager_cone and mohr_coulomb_angle are inverse to round-off, for φ and for ψ
+    (ψ is mapped by the same rule; plane strain by its associated formula); ψ ≤ φ stays
+    ψ_DP ≤ β; beta is the identity."""
+    beta, psi_dp = theory.drucker_prager_cone(phi, psi, cone)
+    associated = psi == phi
+    if cone == "plane_strain" and associated and phi > 40.0:
+        return  # tan β → 1.5 as φ → 90: no inverse needed beyond the range of real solids
+    assert abs(theory.mohr_coulomb_angle(beta, cone, associated) - phi) < 1e-10
+    if psi > 0:
+        assert abs(theory.mohr_coulomb_angle(psi_dp, cone, True) - psi) < 1e-10
+    assert 0.0 <= psi_dp <= beta + 1e-12
+    if cone == "beta":
+        assert (beta, psi_dp) == (phi, psi)
+
+
+@pytest.mark.parametrize("phi", [15.0, 30.0, 35.0, 40.0, 50.0])
+def test_matched_mohr_coulomb_states_lie_on_the_cone(phi):
+    """A Mohr-Coulomb limit state (σ1 = σ3 (1 + sin φ)/(1 − sin φ), compression +) lies on the
+    mapped Drucker-Prager cone q = p tan β in the state its rule matches (round-off):
+    compression σ2 = σ3; extension σ2 = σ1; plane strain with ψ = 0 σ2 = (σ1 + σ3)/2 (no
+    out-of-plane plastic strain for a deviatoric flow); plane strain, associated, σ2 where the
+    associated Drucker-Prager flow has no out-of-plane component, s2 = 2 q tan β/9."""
+    from scipy.optimize import brentq
+
+    s = math.sin(math.radians(phi))
+    s3 = 1.0
+    s1 = s3 * (1 + s) / (1 - s)
+    tan = {c: math.tan(math.radians(theory.drucker_prager_cone(phi, 0.0, c)[0]))
+           for c in ("compression", "extension", "plane_strain_zero_dilation")}
+    assert abs(_dp_ratio(s1, s3, s3) - tan["compression"]) < 1e-12
+    assert abs(_dp_ratio(s1, s1, s3) - tan["extension"]) < 1e-12
+    assert abs(_dp_ratio(s1, 0.5 * (s1 + s3), s3) - tan["plane_strain_zero_dilation"]) < 1e-12
+    assert theory.drucker_prager_cone(phi, 0.0, "plane_strain") == theory.drucker_prager_cone(
+        phi, 0.0, "plane_strain_zero_dilation")[:1] + (0.0,)
+    t = math.tan(math.radians(theory.drucker_prager_cone(phi, phi, "plane_strain")[0]))
+
+    def no_out_of_plane_flow(s2):
+        m = (s1 + s2 + s3) / 3
+        return (s2 - m) - 2.0 * _dp_ratio(s1, s2, s3) * m * t / 9.0
+
+    s2 = brentq(no_out_of_plane_flow, s3, s1)
+    assert abs(_dp_ratio(s1, s2, s3) - t) < 1e-10
+
+
+def test_cone_values_and_errors():
+    """The numbers the scenes quote; bad input names its argument."""
+    assert [round(theory.drucker_prager_cone(p, 0.0)[0], 2) for p in (30.0, 35.0, 40.0)] == [50.19, 54.81, 58.57]
+    assert abs(theory.drucker_prager_cone(30.0, 10.0)[1] - 20.24) < 0.01  # ψ 10° → ψ_DP 20.24°
+    assert abs(theory.janssen_k_en1991(35.0) - 1.1 * (1 - math.sin(math.radians(35.0)))) < 1e-15
+    with pytest.raises(ValueError, match="cone"):
+        theory.drucker_prager_cone(30.0, 0.0, "drucker_prager")
+    with pytest.raises(ValueError, match="ψ"):
+        theory.drucker_prager_cone(30.0, 31.0)
+
+
+def test_steep_cones_carry_any_wall_shear():
+    """tan β ≥ 1.5 (φ > 36.87° matched in compression, e.g. ch. 7's 40°): the compressive state
+    σ1 = σ2, σ3 = 0 lies inside the cone, and its Mohr circle through the origin reaches every
+    τ/σ_n, so the limit is unbounded; below 1.5 it is finite and continuous."""
+    beta = theory.drucker_prager_cone(40.0, 0.0)[0]
+    assert math.tan(math.radians(beta)) > 1.5
+    assert _dp_ratio(1.0, 1.0, 0.0) <= math.tan(math.radians(beta))  # admissible, no tension
+    assert theory.drucker_prager_wall_shear_limit(beta) == math.inf
+    assert abs(theory.drucker_prager_wall_shear_limit(35.0) - 0.457) < 1e-3
+    assert theory.drucker_prager_wall_shear_limit(math.degrees(math.atan(1.4999))) > 10.0

@@ -131,51 +131,28 @@ H_NC = 1.0e4 * 1e3  # Pa
 COHESION = 1.0  # Pa
 
 
-def plane_strain_beta(phi: float, psi: float) -> tuple[float, float]:
-    """Drucker-Prager β, ψ_DP (degrees, thesis convention q = p tan β) matched to a Mohr-Coulomb
-    φ in plane strain: associated flow tan β = 3√3 tan φ/√(9 + 12 tan² φ); zero dilation
-    tan β = √3 sin φ. With these the simple-shear ultimate states are Mohr-Coulomb's:
-    σx/σy = (1 + sin²φ)/(1 − sin²φ), τ/σy = tan φ (associated); σx = σy, τ/σy = sin φ (ψ = 0)."""
-    import math
-
-    def ps(angle, associated):
-        t = math.tan(math.radians(angle))
-        if associated:
-            return math.degrees(math.atan(3 * math.sqrt(3) * t / math.sqrt(9 + 12 * t * t)))
-        return math.degrees(math.atan(math.sqrt(3) * math.sin(math.radians(angle))))
-
-    if psi == phi:
-        b = ps(phi, True)
-        return b, b
-    return ps(phi, False), ps(psi, True) if psi > 0 else 0.0
-
-
-def thesis_beta(phi: float, psi: float) -> tuple[float, float]:
-    """The thesis' apparent choice: tan β = √3 sin φ (the plane-strain match for zero
-    dilation) for both flow rules, ψ_DP = β when associated. It reproduces its ultimate
-    states: ψ = 0: σx = σy, τ/σy = 0.5; associated: σx/σy = 1.75, τ/σy = 0.61 (it reports
-    1.8 and 0.6), since the associated ultimate state of a DP cone of slope t = tan β is
-    σx/σy = (1 + 2t²/9)/(1 − 4t²/9), τ/σy = t/√(3(1 − 4t²/9))."""
-    import math
-
-    b = math.degrees(math.atan(math.sqrt(3) * math.sin(math.radians(phi))))
-    return b, (b if psi == phi else 0.0)
-
-
-def case_materials(case: int, matching: str = "plane_strain"):
-    """(coaxial, non-coaxial) materials of a Table 8-1 case. ``matching``: 'plane_strain'
-    (β matched to φ for plane strain and the case's flow rule) or 'thesis' (see thesis_beta)."""
+def case_materials(case: int, cone: str = "plane_strain"):
+    """(coaxial, non-coaxial) materials of a Table 8-1 case, φ and ψ mapped to the
+    Drucker–Prager cone by ``cone`` (:data:`silo_dolfinx.theory.CONES`; the scenes'
+    ``material.cone``). 'plane_strain' (the default here: the ch. 8 closed forms are plane-strain
+    ones) gives Mohr–Coulomb's simple-shear ultimate states, σx/σy = (1 + sin²φ)/(1 − sin²φ),
+    τ/σy = tan φ (associated) and σx = σy, τ/σy = sin φ (ψ = 0). 'thesis' is the thesis'
+    apparent choice, 'plane_strain_zero_dilation' (tan β = √3 sin φ for both flow rules): it
+    reproduces its ultimate states (ψ = 0: σx = σy, τ/σy = 0.5; associated: σx/σy = 1.75,
+    τ/σy = 0.61, the thesis reports 1.8 and 0.6), since the associated ultimate state of a DP
+    cone of slope t = tan β is σx/σy = (1 + 2t²/9)/(1 − 4t²/9), τ/σy = t/√(3(1 − 4t²/9))."""
     from silo_dolfinx.materials import DruckerPrager, NonCoaxial
+    from silo_dolfinx.theory import drucker_prager_cone
 
     phi, psi, e_kpa, k = TABLE_8_1[case]
-    beta, psi_dp = plane_strain_beta(phi, psi) if matching == "plane_strain" else thesis_beta(phi, psi)
+    beta, psi_dp = drucker_prager_cone(phi, psi, "plane_strain_zero_dilation" if cone == "thesis" else cone)
     E = e_kpa * 1e3
     co = DruckerPrager(E, NU_CH8, 1500.0, beta, psi_dp, COHESION)
     nc = NonCoaxial(E, NU_CH8, 1500.0, beta, psi_dp, COHESION, H_NC)
     return co, nc, k
 
 
-def run_study(out: str, matching: str = "plane_strain", gamma_max: float = 0.1, steps: int = 2000) -> list[dict]:
+def run_study(out: str, cone: str = "plane_strain", gamma_max: float = 0.1, steps: int = 2000) -> list[dict]:
     """Table 8-1 cases 1-8, coaxial and non-coaxial: CSV per case, Figs. 8-3 to 8-7 as PNG,
     and a summary list (also summary.csv). Returns the summary rows."""
     import csv
@@ -190,7 +167,7 @@ def run_study(out: str, matching: str = "plane_strain", gamma_max: float = 0.1, 
     folder.mkdir(parents=True, exist_ok=True)
     paths, rows = {}, []
     for case in TABLE_8_1:
-        co, nc, k = case_materials(case, matching)
+        co, nc, k = case_materials(case, cone)
         a = simple_shear(co, k=k, gamma_max=gamma_max, steps=steps)
         b = simple_shear(nc, k=k, gamma_max=gamma_max, steps=steps)
         paths[case] = (a, b)

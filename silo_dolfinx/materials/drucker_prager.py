@@ -12,9 +12,20 @@ valid while q ≥ 0. Otherwise the trial lies beyond the apex and the stress ret
 apex p = −d/tan β, q = 0. Δλ is also the equivalent (deviatoric) plastic strain increment;
 the plastic volume change is tan ψ Δλ (dilation for ψ > 0).
 
-Critical state (optional): with ``max_dilation`` ε_c > 0 a point stops dilating once its
-plastic volume change tan ψ · ε̄_p reaches ε_c (ψ → 0 from then on), as a sheared granular
-solid does at its critical state. Without it the density near an outlet keeps falling.
+Critical state: with ``max_dilation`` ε_c > 0 (the scenes' default) a point stops dilating
+once its plastic volume change tan ψ · ε̄_p reaches ε_c (ψ → 0 from then on), as a sheared
+granular solid does at its critical state. Without it the density near an outlet keeps falling.
+
+Tension cut-off: a cone steeper than tan β = 3/2 (a Mohr–Coulomb φ > 36.87° matched in
+compression) contains states with a tensile principal stress even without cohesion (e.g.
+σ1 = σ2 compressive, σ3 > 0). Such cones get a Rankine cut-off through the apex: no principal
+stress above T = d/tan β (tension +). A point beyond it returns in principal space with
+associated Rankine flow (Δε_p along the offending principal directions, as FLAC's tension
+correction): σ_a = T, the others lowered by λ Δλ_a; two active planes share their corner, three
+give the apex. The returned state lies inside the cone (it lowers q and raises p), its
+dissipation T Δλ ≥ 0; ε̄_p (the cone's shear strain, which drives the critical state) is not
+changed by it. For tan β ≤ 3/2 no admissible state has a principal stress above T, and the
+cut-off is never evaluated.
 """
 
 from __future__ import annotations
@@ -24,7 +35,7 @@ import math
 import numba
 import numpy as np
 
-from silo_dolfinx.materials.base import Material, elastic_trial, invariants
+from silo_dolfinx.materials.base import Material, invariants
 
 
 class DruckerPrager(Material):
@@ -40,12 +51,15 @@ class DruckerPrager(Material):
         self.tan_psi = math.tan(math.radians(dilation_angle))
         # ε̄_p beyond which ψ = 0 (inf: never)
         self.eqps_critical = max_dilation / self.tan_psi if max_dilation > 0.0 and self.tan_psi > 0.0 else math.inf
+        # tension cut-off through the apex, only where the cone admits tension (tan β > 3/2)
+        self.tension_cutoff = cohesion / self.tan_beta if self.tan_beta > 1.5 else math.inf
 
     noncoaxial = 0.0  # 4G²/(H_nc + 2G): zero for the coaxial law (see non_coaxial.py)
 
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
         return float(_update(sig, deps, state_old["eqps"], self.K, self.G, self.tan_beta, self.tan_psi,
-                             self.cohesion, self.noncoaxial, self.eqps_critical, sig_new, state_new["eqps"], dV))
+                             self.cohesion, self.noncoaxial, self.eqps_critical, self.tension_cutoff, sig_new,
+                             state_new["eqps"], dV))
 
     def yield_function(self, sig: np.ndarray) -> np.ndarray:
         """F(σ) for an (n, 4) array (≤ 0 admissible)."""
@@ -54,33 +68,6 @@ class DruckerPrager(Material):
             p, q, *_ = invariants(sig[i])
             out[i] = q - p * self.tan_beta - self.cohesion
         return out
-
-
-@numba.njit(cache=True)
-def return_map(s_trial, K, G, tanb, tanpsi, d, out):
-    """Return one trial stress to the yield surface; returns (Δλ, apex?)."""
-    p, q, d0, d1, d2, d3 = invariants(s_trial)
-    f = q - p * tanb - d
-    if f <= 0.0:
-        out[:] = s_trial
-        return 0.0, False
-    dlam = f / (3.0 * G + K * tanb * tanpsi)
-    if 3.0 * G * dlam <= q:
-        qn = q - 3.0 * G * dlam
-        pn = p + K * tanpsi * dlam
-        k = qn / q
-        out[0] = k * d0 - pn
-        out[1] = k * d1 - pn
-        out[2] = k * d2 - pn
-        out[3] = k * d3
-        return dlam, False
-    # apex: q = 0 on the yield surface (tan β > 0 here, else the cone return is always valid)
-    pa = -d / tanb
-    out[0] = -pa
-    out[1] = -pa
-    out[2] = -pa
-    out[3] = 0.0
-    return dlam, True
 
 
 @numba.njit(cache=True, inline="always")
@@ -92,19 +79,60 @@ def _trial_yield(t0, t1, t2, t3, tanb, d):
     return d0, d1, d2, q, -m, q - (-m) * tanb - d
 
 
+@numba.njit(cache=True, inline="always")
+def _principal_cap(s0, s1, s2, s3, T, lam, two_g):
+    """Rankine return of an axisymmetric stress (rr, zz, θθ, rz) to σ_i ≤ T (tension +) with
+    associated flow in principal space; returns the new components."""
+    c = 0.5 * (s0 + s1)
+    h = 0.5 * (s0 - s1)
+    r = math.sqrt(h * h + s3 * s3)
+    cs, sn = (h / r, s3 / r) if r > 0.0 else (1.0, 0.0)  # cos 2θ, sin 2θ of the in-plane axes
+    v0, v1, v2 = c + r, c - r, s2  # principal values; v0 ≥ v1
+    a, b, k = (v0, v1, v2) if v2 <= v1 else ((v0, v2, v1) if v2 <= v0 else (v2, v0, v1))  # a ≥ b ≥ k
+    e = lam + two_g
+    da = a - T
+    x_a, x_b = da / e, 0.0
+    if b - lam * x_a > T:  # two active planes: their corner
+        db = b - T
+        det = e * e - lam * lam
+        x_a, x_b = (e * da - lam * db) / det, (e * db - lam * da) / det
+    a_n = a - e * x_a - lam * x_b
+    b_n = b - lam * x_a - e * x_b
+    k_n = k - lam * (x_a + x_b)
+    if k_n > T:  # all three: the apex
+        a_n = b_n = k_n = T
+    # back to the components (same principal axes)
+    if v2 <= v1:
+        w0, w1, w2 = a_n, b_n, k_n
+    elif v2 <= v0:
+        w0, w2, w1 = a_n, b_n, k_n
+    else:
+        w2, w0, w1 = a_n, b_n, k_n
+    cn, rn = 0.5 * (w0 + w1), 0.5 * (w0 - w1)
+    return cn + rn * cs, cn - rn * cs, w2, rn * sn
+
+
+@numba.njit(cache=True, inline="always")
+def _max_principal(s0, s1, s2, s3):
+    h = 0.5 * (s0 - s1)
+    return max(0.5 * (s0 + s1) + math.sqrt(h * h + s3 * s3), s2)
+
+
 @numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
-def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps_new, dV):
-    """The return map of :func:`return_map` over all points, written out in scalars (the
-    hot loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p.
+def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, T, sig_new, eqps_new, dV):
+    """The return map (module docstring) over all points, written out in scalars (the hot
+    loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p.
 
     c_nc = 4G²/(H_nc + 2G) > 0 adds the yield-vertex non-coaxial plastic strain (eq. 8-11)
     at points that load plastically: the trial deviator loses c_nc Δe_t, Δe_t the part of
     the deviatoric strain increment tangential to the current deviator s (s : Δe_t = 0).
-    Points with ε̄_p ≥ eqps_c flow at constant volume (ψ = 0: the critical state)."""
+    Points with ε̄_p ≥ eqps_c flow at constant volume (ψ = 0: the critical state).
+    T < inf: the tension cut-off (module docstring), checked at every point."""
     diss = 0.0
     lam = K - 2.0 * G / 3.0
     two_g = 2.0 * G
     c = lam / (3.0 * lam + 2.0 * G)
+    cutoff = T < math.inf
     for i in range(sig.shape[0]):
         e0, e1, e2, e3 = deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3]
         tr = e0 + e1 + e2
@@ -113,7 +141,7 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps
         t2 = sig[i, 2] + lam * tr + two_g * e2
         t3 = sig[i, 3] + G * e3
         d0, d1, d2, q, p, f = _trial_yield(t0, t1, t2, t3, tanb, d)
-        if f <= 0.0:
+        if f <= 0.0 and not (cutoff and _max_principal(t0, t1, t2, t3) > T):
             sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = t0, t1, t2, t3
             eqps_new[i] = eqps[i]
             continue
@@ -132,7 +160,7 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps
                 t2 -= c_nc * (de2 - proj * s2)
                 t3 -= c_nc * (de3 - proj * s3)
                 d0, d1, d2, q, p, f = _trial_yield(t0, t1, t2, t3, tanb, d)
-                if f <= 0.0:
+                if f <= 0.0 and not (cutoff and _max_principal(t0, t1, t2, t3) > T):
                     s0n, s1n, s2n, s3n = t0, t1, t2, t3
                     sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0n, s1n, s2n, s3n
                     r0, r1, r2, r3 = e0t - s0n, e1t - s1n, e2t - s2n, e3t - s3n
@@ -142,11 +170,11 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps
                     eqps_new[i] = eqps[i]
                     continue
         tanpsi = tanpsi0 if eqps[i] < eqps_c else 0.0
-        dlam = f / (3.0 * G + K * tanb * tanpsi)
+        dlam = max(f, 0.0) / (3.0 * G + K * tanb * tanpsi)  # f ≤ 0: inside the cone, beyond the cut-off
         if 3.0 * G * dlam <= q:  # return to the cone
             qn = q - 3.0 * G * dlam
             pn = p + K * tanpsi * dlam
-            k = qn / q
+            k = qn / q if q > 0.0 else 0.0
             s0, s1, s2, s3 = k * d0 - pn, k * d1 - pn, k * d2 - pn, k * t3
             eqps_new[i] = eqps[i] + dlam
             apex = False
@@ -154,6 +182,8 @@ def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, sig_new, eqps
             pa = -d / tanb
             s0, s1, s2, s3 = -pa, -pa, -pa, 0.0
             apex = True
+        if cutoff and not apex and _max_principal(s0, s1, s2, s3) > T:
+            s0, s1, s2, s3 = _principal_cap(s0, s1, s2, s3, T, lam, two_g)
         sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0, s1, s2, s3
         # plastic strain Δε_p = C⁻¹ (σ_trial,elastic − σ_new) (coaxial + non-coaxial) and its
         # dissipation σ_new : Δε_p

@@ -117,6 +117,45 @@ def flow_rate_from_mass(t, discharged_mass):
     return np.gradient(np.asarray(discharged_mass, float), np.asarray(t, float))
 
 
+def janssen_comparison(z, p_n, p_s, *, fill_height: float, radius: float, mu: float, k: float,
+                       unit_weight: float, z_min: float, z_max: float | None = None, slip_tol: float = 0.01):
+    """A vertical wall's filling pressures against Janssen (theory.janssen with K = ``k``) from
+    one Janssen depth z0 = R/(2Kμ) below the surface down to ``z_min`` (or between z_min and
+    z_max if given): dict with the window, the ratio p_n/p_Janssen at each node in it (and its
+    range), and the fraction of those nodes at the friction limit |p_s/p_n − μ| ≤ slip_tol μ
+    (the wall slides there)."""
+    from silo_dolfinx import theory
+
+    z, p_n, p_s = (np.asarray(a, float) for a in (z, p_n, p_s))
+    z0 = theory.janssen_depth(radius, mu, k)
+    top = fill_height - z0 if z_max is None else z_max
+    sel = (z >= z_min) & (z <= top) & (p_n > 0)
+    ph, _, _ = theory.janssen(fill_height - z[sel], radius, mu, k, unit_weight)
+    ratio = p_n[sel] / ph
+    at_limit = np.abs(p_s[sel] / p_n[sel] - mu) <= slip_tol * mu
+    return {"z0": z0, "window": (z_min, top), "z": z[sel], "ratio": ratio,
+            "ratio_min": float(ratio.min()) if ratio.size else np.nan,
+            "ratio_max": float(ratio.max()) if ratio.size else np.nan,
+            "slip_fraction": float(at_limit.mean()) if at_limit.size else np.nan,
+            "mobilised_mean": float(np.mean(p_s[sel] / p_n[sel])) if ratio.size else np.nan}
+
+
+def windowed_mass_flow(t, discharged_mass, window: float, t_start: float | None = None):
+    """The mass actually leaving in consecutive windows of ``window`` s from ``t_start``
+    (default: the first sample): (window start times, mean flow rate = mass discharged in the
+    window / its length, kg/s). Only whole windows; the discharged mass is interpolated
+    linearly at the window edges, so the sampling need not be uniform."""
+    t = np.asarray(t, float)
+    m = np.asarray(discharged_mass, float)
+    if window <= 0:
+        raise ValueError("window must be positive")
+    t0 = t[0] if t_start is None else float(t_start)
+    n = int(np.floor((t[-1] - t0) / window + 1e-9))
+    edges = t0 + window * np.arange(n + 1)
+    mass = np.interp(edges, t, m)
+    return edges[:-1], np.diff(mass) / window
+
+
 # ---------------------------------------------------------------------------- flow pattern
 def flow_channel_boundary(r, z, vz, fraction: float = 1e-3, rows: np.ndarray | None = None):
     """Ch. 6.4.3: at each height, the radius where |v_z| first falls below ``fraction`` of the

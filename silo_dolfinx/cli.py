@@ -4,7 +4,7 @@
     silo mesh SCENE -o meshes/NAME.msh [--show]        write the gmsh mesh (and a PNG of it)
     silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
     silo report results/NAME                           figures + report.md from a results folder
-    silo shear --out results/shear [--matching thesis] the ch. 8 simple-shear study (Table 8-1)
+    silo shear --out results/shear [--cone thesis]     the ch. 8 simple-shear study (Table 8-1)
     silo schema                                        print the scene reference (Markdown)
 
 Bad input is reported before any meshing or time-stepping, one line per problem naming the
@@ -17,6 +17,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from silo_dolfinx import theory
 from silo_dolfinx.scene import SceneError, load_scene
 
 
@@ -44,8 +45,11 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument("folder", help="results folder written by silo run")
     sp = sub.add_parser("shear", help="thesis ch. 8 simple shear, Table 8-1, coaxial vs non-coaxial")
     sp.add_argument("--out", required=True, help="folder for CSV and PNG files")
-    sp.add_argument("--matching", choices=("plane_strain", "thesis"), default="plane_strain",
-                    help="Drucker-Prager β from φ: matched for plane strain (default) or the thesis' choice")
+    sp.add_argument("--cone", "--matching", dest="cone", default="plane_strain",
+                    choices=tuple(c for c in theory.CONES if c != "beta") + ("thesis",),
+                    help="Drucker-Prager β from φ, as the scenes' material.cone: plane_strain (default; "
+                    "the ch. 8 closed forms are plane-strain ones), compression, extension, or the thesis' "
+                    "own choice tan β = √3 sin φ (thesis = plane_strain_zero_dilation)")
     sp.add_argument("--gamma", type=float, default=0.1, help="final shear strain (default 0.1)")
     sub.add_parser("schema", help="print the scene file reference (Markdown)")
     return p
@@ -127,6 +131,7 @@ def _check(args) -> int:
             print(f"# warning: {w}", file=sys.stderr)
         print(f"# {args.scene}: valid. Resolved scene (defaults filled in):")
         print(scene.to_toml(), end="")
+        print(f"# material: {scene.cone_text()}")
         ol = scene.outline
         print(f"# silo volume {ol.volume():.6g} m³, mass {ol.volume() * scene.material.density:.6g} kg, "
               f"fill height {ol.fill_height:g} m, wall length {ol.wall.length:.6g} m")
@@ -177,7 +182,7 @@ def _shear(args) -> int:
         return 0
     from silo_dolfinx.materials.driver import run_study
 
-    rows = run_study(args.out, args.matching, args.gamma)
+    rows = run_study(args.out, args.cone, args.gamma)
     print(f"{'case':>4} {'φ':>4} {'ψ':>4} {'E kPa':>8} {'k':>4} {'β_DP':>6} {'σx/σy':>7} {'τ/σy':>7} "
           f"{'peak Δ':>7} {'angle':>6}")
     for r in rows:

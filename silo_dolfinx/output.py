@@ -80,6 +80,7 @@ class Results:
             "scene": str(scene.source) if scene.source else None,
             "started": time.strftime("%Y-%m-%dT%H:%M:%S"),
             "ranks": comm.size,
+            "material_angles": scene.cone,
             "stages": [],
             "warnings": list(scene.warnings),
         }

@@ -84,50 +84,104 @@ class Report:
 
     # ------------------------------------------------------------------ theory beside the walls
     def wall_theory(self, z: np.ndarray, stage: str) -> list[tuple[str, np.ndarray]]:
-        """Theory curves of p_n at heights z for this scene and stage."""
+        """Theory curves of p_n at heights z for this scene and stage, each drawn only in the
+        state it describes (filling: Janssen, EN 1991-4 filling, Walker's active solution;
+        discharge: EN 1991-4 discharge, Walker's passive solution, McLean's radial-field m)
+        and labelled with the K, F and m it uses. Janssen's K comes from the scene: EN 1991-4's
+        1.1 (1 − sin φ) and the simulated solid's own (measured at the end of the stage where
+        a field snapshot allows, else the larger of ν/(1 − ν) and the cone's active ratio: a fill
+        in uniaxial strain is elastic unless it yields); the thesis' K is
+        drawn only for the thesis' own scenes."""
         sc = self.scene
         if sc is None:
             return []
         g, m, w = sc.geometry, sc.material, sc.wall
         gamma = m.density * sc.loads.gravity
         mu = w.get("mu", w.get("mu_static", 0.0))
-        phi = m.get("friction_angle")
+        cone = sc.cone
+        phi = cone["phi_mohr_coulomb"] if cone else None  # Mohr-Coulomb φ of the simulated solid
+        discharge = stage == "discharge"
         hf = g.fill_height
         out = []
-        if g.shape in ("flat_bottom", "column") and mu > 0:
-            R = g.radius if g.shape == "flat_bottom" else g.base_radius
-            for K, label in ((0.38, "Janssen K = 0.38"),) + (
-                    ((m.poisson_ratio / (1 - m.poisson_ratio), "Janssen K = ν/(1−ν)"),) if m.model == "elastic" else ()):
-                ph, _, _ = theory.janssen(np.clip(hf - z, 0, None), R, mu, K, gamma, sc.loads.top_surcharge)
-                out.append((label, ph))
+        if g.shape in ("flat_bottom", "column", "bin_hopper") and mu > 0 and not discharge:
+            R = {"flat_bottom": "radius", "bin_hopper": "radius", "column": "base_radius"}[g.shape]
+            out += self._janssen(z, g[R], mu, gamma, stage)
         if g.shape == "hopper" and mu > 0:
             alpha = hopper_half_angle(g)
             zz = np.clip(z, 0, g.height)
+            kappa = 1 if discharge else -1
             if phi and math.atan(mu) < math.radians(phi):
-                kappa = 1 if stage == "discharge" else -1
+                F, m_w = theory.walker_parameters(phi, mu, alpha, kappa)
                 pn, _ = theory.walker_hopper(zz, phi, mu, alpha, g.outlet_radius, g.height, gamma, kappa)
-                out.append((f"Walker κ = {kappa:+d}, φ = β", pn))
-                # the same theory with the Mohr–Coulomb angle of the simulated Drucker–Prager solid
-                phi_dp = theory.drucker_prager_compression_angle(phi)
-                if math.atan(mu) < math.radians(phi_dp):
-                    pn, _ = theory.walker_hopper(zz, phi_dp, mu, alpha, g.outlet_radius, g.height, gamma, kappa)
-                    out.append((f"Walker κ = {kappa:+d}, φ = {phi_dp:.1f}° (DP-matched)", pn))
-                F, _ = theory.walker_parameters(phi, mu, alpha, kappa)
-                sv = theory.hopper_vertical_stress(zz, theory.mclean_m(mu, alpha), alpha, g.outlet_radius, g.height,
-                                                   gamma)
-                out.append(("McLean (eq. 4-4)", F * sv))
-            pn, _ = theory.en1991_hopper(zz, mu, alpha, g.outlet_radius, g.height, gamma,
-                                         discharge=stage == "discharge" and bool(phi), friction_angle=phi)
-            out.append(("EN 1991-4 " + ("discharge" if stage == "discharge" and phi else "filling"), pn))
-        if g.shape == "bin_hopper" and mu > 0:
+                out.append((f"Walker κ = {kappa:+d} ({'passive' if discharge else 'active'}), φ = {phi:.1f}°: "
+                            f"F {F:.2f}, m {m_w:.2f}", pn))
+                if discharge:  # McLean's m belongs to the radial stress field of a flowing hopper
+                    m_mc = theory.mclean_m(mu, alpha)
+                    sv = theory.hopper_vertical_stress(zz, m_mc, alpha, g.outlet_radius, g.height, gamma)
+                    out.append((f"McLean (eq. 4-4): m = 2μ/tan α = {m_mc:.2f}, Walker's passive F {F:.2f}", F * sv))
+            if phi or not discharge:
+                pn, _ = theory.en1991_hopper(zz, mu, alpha, g.outlet_radius, g.height, gamma, discharge=discharge,
+                                             friction_angle=phi)
+                out.append(("EN 1991-4 " + ("discharge" if discharge else "filling"), pn))
+        if g.shape == "bin_hopper" and mu > 0 and not discharge:
             hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
-            ph, _, pv = theory.janssen(np.clip(hf - z, 0, None), g.radius, mu, 0.38, gamma)
-            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, 0.38, gamma)
+            K = theory.janssen_k_en1991(phi) if phi else m.poisson_ratio / (1 - m.poisson_ratio)
+            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, K, gamma)
             zz = np.clip(z, 0, hh)
-            pn_h, _ = theory.en1991_hopper(zz, mu, g.hopper_half_angle, g.outlet_radius, hh, gamma, surcharge=float(pv_t),
-                                           discharge=stage == "discharge" and bool(phi), friction_angle=phi)
-            out.append(("Janssen K = 0.38 / EN 1991-4 hopper", np.where(z > hh, ph, pn_h)))
+            pn_h, _ = theory.en1991_hopper(zz, mu, g.hopper_half_angle, g.outlet_radius, hh, gamma,
+                                           surcharge=float(pv_t))
+            out.append((f"EN 1991-4 hopper filling (bin load with K = {K:.2f})", np.where(z > hh, np.nan, pn_h)))
         return out
+
+    # Janssen's K as the thesis gives it, for its own scenes only (by title)
+    THESIS_K = {"flat_bottom_ch6": 0.38, "bin_hopper_ch7": 0.38}
+
+    def _janssen(self, z, R: float, mu: float, gamma: float, stage: str) -> list[tuple[str, np.ndarray]]:
+        sc = self.scene
+        m, cone = sc.material, sc.cone
+        depth = np.clip(sc.geometry.fill_height - z, 0, None)
+        ks = []
+        if cone:
+            ks.append((theory.janssen_k_en1991(cone["phi_mohr_coulomb"]),
+                       f"EN 1991-4 K = 1.1(1 − sin φ), φ {cone['phi_mohr_coulomb']:.1f}°"))
+        own = self.measured_k(stage, mu, R)
+        k0 = m.poisson_ratio / (1 - m.poisson_ratio)
+        if own is not None:
+            ks.append((own, "the simulated solid's own K, measured"))
+        elif cone is None:
+            ks.append((k0, "ν/(1−ν), elastic"))
+        elif cone["beta"] < 71.5:  # without a snapshot: a fill in uniaxial strain, elastic unless it yields
+            ka = theory.drucker_prager_active_k(cone["beta"])
+            ks.append((max(k0, ka), "the solid's own: ν/(1−ν) or its cone's active ratio, the larger"))
+        thesis = next((k for name, k in self.THESIS_K.items() if sc.title.startswith(name)), None)
+        if thesis is not None:
+            ks.append((thesis, "the thesis'"))
+        return [(f"Janssen K = {K:.3g} ({why})", theory.janssen(depth, R, mu, K, gamma, sc.loads.top_surcharge)[0])
+                for K, why in ks]
+
+    def measured_k(self, stage: str, mu: float, R: float) -> float | None:
+        """The solid's own lateral pressure ratio at the end of ``stage``: the median over the
+        depths from one Janssen depth (with that K) down to 0.1 m above the bottom of wall p_n
+        over the section-mean vertical stress (analysis.lateral_pressure_ratio), from the last
+        field snapshot of the stage; None without one."""
+        t_end = self._stage_times().get(stage, (0.0, None))[1]
+        wall = read_csv(self.folder / f"wall_profile_{stage}.csv")
+        snap = self._snapshot(t_end) if t_end is not None else None
+        if wall is None or snap is None or "cell_stress_zz" not in snap:
+            return None
+        from silo_dolfinx import analysis
+
+        z = wall["z"]
+        z_top = self.scene.geometry.fill_height
+        k = 0.5
+        for _ in range(3):  # the window starts one Janssen depth down: iterate K and z0 = R/(2 K μ)
+            sel = (z > z.min() + 0.1) & (z < z_top - R / (2 * k * mu))
+            if not np.any(sel):
+                return None
+            k = float(np.nanmedian(analysis.lateral_pressure_ratio(snap, wall, z[sel])))
+            if not (np.isfinite(k) and k > 0):
+                return None
+        return k
 
     # ------------------------------------------------------------------ figures
     def wall_profiles(self) -> None:
@@ -248,7 +302,10 @@ class Report:
         a1.plot(d["t"], d["mean_outlet_velocity"], "k-", lw=0.8)
         a1.set_ylabel("mean outlet velocity (m/s)")
         a1.grid(alpha=0.3)
-        a2.plot(d["t"], d["mass_flow_rate"], "k-", lw=0.8, label="simulation")
+        a2.plot(d["t"], d["mass_flow_rate"], "k-", lw=0.8, label="mass leaving (simulation)")
+        if "nominal_mass_flow_rate" in d:
+            a2.plot(d["t"], d["nominal_mass_flow_rate"], "b-", lw=0.6, alpha=0.6,
+                    label="nominal ρ0·A·v (the thesis' definition)")
         sc = self.scene
         if sc is not None and sc.geometry.shape != "column":
             D0 = 2 * sc.geometry.outlet_radius
@@ -257,8 +314,12 @@ class Report:
             steady = d["t"] > d["t"][0] + 0.5 * (d["t"][-1] - d["t"][0])
             if np.any(steady):
                 mean = float(np.nanmean(d["mass_flow_rate"][steady]))
-                self.numbers.append(("mean mass flow, second half of discharge",
+                self.numbers.append(("mean mass flow (mass leaving), second half of discharge",
                                      f"{mean:.4g} kg/s (Beverloo {Wb:.4g} kg/s, {100 * (mean - Wb) / Wb:+.1f} %)"))
+                if "nominal_mass_flow_rate" in d:
+                    nom = float(np.nanmean(d["nominal_mass_flow_rate"][steady]))
+                    self.numbers.append(("nominal mass flow ρ0·A·v (the thesis' definition), second half",
+                                         f"{nom:.4g} kg/s ({100 * (nom - Wb) / Wb:+.1f} % from Beverloo)"))
         a2.set_xlabel("time t (s)")
         a2.set_ylabel("mass flow rate (kg/s)")
         a2.legend(fontsize=8)
@@ -337,8 +398,11 @@ class Report:
         a2.grid(alpha=0.3, which="both")
         self._save(fig, "energy.png", "Energy terms and the balance error.")
 
-    def _snapshot(self):
+    def _snapshot(self, t_max: float | None = None):
+        """The last field snapshot (written at or before ``t_max``, if given); None if none."""
         snaps = sorted((self.folder / "fields").glob("snapshot_*.npz"))
+        if t_max is not None:
+            snaps = [f for f in snaps if float(np.load(f)["t"]) <= t_max + 1e-9]
         if not snaps:
             return None
         return dict(np.load(snaps[-1]))
@@ -451,7 +515,7 @@ class Report:
             g, m = sc.geometry, sc.material
             lines += [f"Geometry: `{g.shape}`, fill height {g.fill_height:g} m. Material: `{m.model}`, "
                       f"ρ {m.density:g} kg/m³, E {m.youngs_modulus:g} Pa, ν {m.poisson_ratio:g}"
-                      + (f", β {m.friction_angle:g}°, ψ {m.dilation_angle:g}°" if "friction_angle" in m else "")
+                      + (f"; {sc.cone_text()}" if sc.cone else "")
                       + f". Wall: `{sc.wall.friction}`.", ""]
         lines += ["## Key numbers", "", "| quantity | value |", "|---|---|"]
         lines += [f"| {k} | {v} |" for k, v in self.numbers]

@@ -471,19 +471,27 @@ DILATION_WARNING = 0.5  # a cell below this fraction of the solid's density is n
 
 
 def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
-    """A warning for each stage that ended with a cell dilated below half the solid's density:
-    Drucker-Prager with a constant ψ > 0 dilates for as long as it shears (e.g. at an outlet)."""
+    """A warning for each stage that ended with a cell dilated below half the solid's density,
+    naming the cause: without a critical state (max_dilation = 0, ψ > 0) the cone's dilation
+    never stops; with one, what remains is tensile separation at the cone's apex (a solid
+    stretched at near-zero pressure: the free-fall zone above an outlet, a free-surface
+    crater), which a Drucker-Prager solid never recompacts."""
     m = scene.material
     rho0 = m.density
-    psi = f"dilation_angle = {m.dilation_angle:g}" if "dilation_angle" in m else "this material"
     out = []
     for st in stages:
         if st["density_min"] < DILATION_WARNING * rho0:
-            out.append(f"[material] by the end of the {st['name']} stage a cell had dilated to "
-                       f"{st['density_min']:.4g} kg/m³ ({100 * st['density_min'] / rho0:.0f} % of density = {rho0:g}): "
-                       f"with {psi} the solid dilates for as long as it shears. Set material.max_dilation "
-                       "(e.g. 0.05: a critical state) or dilation_angle = 0 if the flowing solid should keep its "
-                       "density.")
+            head = (f"[material] by the end of the {st['name']} stage a cell had dilated to {st['density_min']:.4g} "
+                    f"kg/m³ ({100 * st['density_min'] / rho0:.0f} % of density = {rho0:g}): ")
+            if m.get("dilation_angle", 0.0) > 0.0 and m.get("max_dilation", 0.0) == 0.0:
+                out.append(head + f"with dilation_angle = {m.dilation_angle:g} and max_dilation = 0 the solid dilates "
+                           "for as long as it shears. Set material.max_dilation > 0 (the default 0.05: a critical "
+                           "state) or dilation_angle = 0 if the flowing solid should keep its density.")
+            else:
+                out.append(head + "the cone's dilation is bounded (max_dilation or ψ = 0), so this is tensile "
+                           "separation at the cone's apex, where the solid is stretched at near-zero pressure (the "
+                           "free-fall zone above an outlet, a free-surface crater); Drucker-Prager does not "
+                           "recompact it. Its stable Δt falls with its density.")
     return out
 
 
@@ -556,13 +564,16 @@ class DischargeMonitor:
 
     outlet.csv: t, discharged_mass (kg: counted by the remap as it leaves through the
     Eulerian outlet; without ALE, the mass of cells below the outlet plane), mass_in_silo,
-    mass_flow_rate (kg/s, discharged mass over the last 0.05 s), mean_outlet_velocity
-    (m/s, downward, area-weighted over the outlet), mass_balance_error (relative).
+    mass_flow_rate (kg/s: the mass actually leaving, discharged mass over the last 0.05 s),
+    mean_outlet_velocity (m/s, downward, area-weighted over the outlet), mass_balance_error
+    (relative), nominal_mass_flow_rate (kg/s: the thesis' definition, the solid's density ×
+    outlet area × mean outlet velocity, ρ0·A·v; above the real one where the outlet material
+    is looser than ρ0), dt (s: the current stable time step).
     mesh_quality.csv: t, top_drop (m, the free surface on the axis), min_scaled_jacobian,
     max_aspect_ratio (the Fig. 3-18 quantities)."""
 
     OUTLET_COLUMNS = ["t", "discharged_mass", "mass_in_silo", "mass_flow_rate", "mean_outlet_velocity",
-                      "mass_balance_error"]
+                      "mass_balance_error", "nominal_mass_flow_rate", "dt"]
     MESH_COLUMNS = ["t", "top_drop", "min_scaled_jacobian", "max_aspect_ratio"]
     RATE_WINDOW = 0.05  # s: the mass flow rate is the discharged mass over this trailing window
 
@@ -647,10 +658,11 @@ class DischargeMonitor:
         v_mean = num[0] / num[1] if num[1] > 0 else 0.0
         err = (self.mass0 - inside - (out if self.ale is not None else 0.0)) / self.mass0
         self.worst_balance = max(self.worst_balance, abs(err))
-        self.outlet_csv.write([s.t, out, inside, rate, v_mean, err])
+        nominal = self.model.scene.material.density * num[0]  # ρ0 ∫ −v_z dA
+        self.outlet_csv.write([s.t, out, inside, rate, v_mean, err, nominal, s.dt_prev])
         smin, amax = self._quality()
         self.mesh_csv.write([s.t, self._z_top0 - self._axis_top_z(), smin, amax])
-        self.flow.append((s.t, rate, v_mean, amax, out))
+        self.flow.append((s.t, rate, v_mean, amax, out, nominal))
 
     def summary(self) -> dict:
         d = {"mass_at_opening": self.mass0, "mass_balance_error_max": self.worst_balance}
@@ -662,6 +674,7 @@ class DischargeMonitor:
             span = f[-1, 0] - f[i0, 0]
             d.update(mean_mass_flow_rate_second_half=float((f[-1, 4] - f[i0, 4]) / span) if span > 0 else 0.0,
                      mean_outlet_velocity_second_half=float(f[late, 2].mean()),
+                     mean_nominal_mass_flow_rate_second_half=float(f[late, 5].mean()),
                      initial_max_aspect_ratio=self.aspect0, final_max_aspect_ratio=float(f[-1, 3]))
         if self.ale is not None:
             d["ale"] = self.ale.totals()

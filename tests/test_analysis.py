@@ -77,3 +77,32 @@ def test_stress_ratio_and_orientation():
     assert analysis.stress_ratio(sig[:1])[0] == pytest.approx(1.0)
     # strain rate: elongation along r -> major direction horizontal
     assert analysis.strain_rate_orientation([[1.0, -1.0, 0.0, 0.0]])[0] == pytest.approx(0.0)
+
+
+def test_windowed_mass_flow_of_a_known_discharge():
+    """M(t) = 30 t + 2 sin(2π t/10) sampled unevenly: each whole 10 s window's mean rate is
+    exactly 30 kg/s (the sine integrates to zero over a period); a linear ramp's windows give
+    its mean rate in each; a partial last window is dropped."""
+    rng = np.random.default_rng(1)
+    t = np.sort(np.concatenate([[0.0, 60.0], rng.uniform(0, 60, 3000)]))
+    starts, w = analysis.windowed_mass_flow(t, 30 * t + 2 * np.sin(2 * np.pi * t / 10), 10.0)
+    assert np.allclose(starts, [0, 10, 20, 30, 40, 50]) and np.allclose(w, 30.0, atol=0.05)
+    starts, w = analysis.windowed_mass_flow(t, t**2, 25.0, t_start=5.0)  # rate 2t: mean over [a, a+25]
+    assert np.allclose(starts, [5.0, 30.0]) and np.allclose(w, [2 * 17.5, 2 * 42.5], rtol=1e-3)
+
+
+def test_janssen_comparison_on_janssen_itself():
+    """A wall carrying exactly Janssen's pressure at the friction limit: ratio 1 and slip
+    fraction 1 over the window from z0 = R/(2Kμ) below the surface down to z_min; halve the
+    shear on the lower half and the fraction halves."""
+    from silo_dolfinx import theory
+
+    H, R, mu, K, g = 4.0, 0.35, 0.63, 0.38, 14270.0
+    z = np.linspace(0, H, 401)
+    ph, _, _ = theory.janssen(H - z, R, mu, K, g)
+    c = analysis.janssen_comparison(z, ph, mu * ph, fill_height=H, radius=R, mu=mu, k=K, unit_weight=g, z_min=0.1)
+    assert abs(c["z0"] - R / (2 * K * mu)) < 1e-12 and c["window"] == (0.1, H - c["z0"])
+    assert abs(c["ratio_min"] - 1) < 1e-12 and abs(c["ratio_max"] - 1) < 1e-12 and c["slip_fraction"] == 1.0
+    ps = np.where(z < c["z"].mean(), 0.5 * mu * ph, mu * ph)
+    c = analysis.janssen_comparison(z, ph, ps, fill_height=H, radius=R, mu=mu, k=K, unit_weight=g, z_min=0.1)
+    assert abs(c["slip_fraction"] - 0.5) < 0.01

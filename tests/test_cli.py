@@ -17,6 +17,8 @@ def test_check_prints_the_resolved_scene(capsys, comm):
         assert resolved["numerics"]["time_step_scale"] == 0.5  # from --set
         assert resolved["numerics"]["bulk_viscosity"] == [0.06, 1.2]  # default
         assert "silo volume 4.34042 m³" in out  # π h (R0² + R0 Rt + Rt²)/3
+        assert "# material: Mohr-Coulomb friction_angle φ = 30°, dilation_angle ψ = 10° -> Drucker-Prager " \
+            "β = 50.19°, ψ_DP = 20.24°" in out  # what the angles resolve to
 
 
 def test_check_refuses_bad_input_with_exit_2(capsys, comm):

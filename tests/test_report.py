@@ -114,3 +114,33 @@ def test_silo_report_command(synthetic, capsys):
     assert main(["report", str(synthetic)]) == 0
     assert "report.md: written" in capsys.readouterr().out
     assert main(["report", str(synthetic / "nope")]) == 2
+
+
+def _theory_labels(tmp_path, scene_file, stage, overrides=()):
+    from silo_dolfinx.report import Report
+
+    scene = load_scene(SCENES / scene_file, list(overrides))
+    d = tmp_path / scene.title
+    d.mkdir()
+    (d / "scene.toml").write_text(scene.to_toml())
+    z = np.linspace(0.05, scene.geometry.fill_height - 0.05, 20)
+    return [label for label, _ in Report(d).wall_theory(z, stage)]
+
+
+def test_theory_curves_come_from_the_scene(tmp_path):
+    """Janssen's K is the scene's: EN 1991-4's 1.1 (1 − sin φ) with the scene's Mohr-Coulomb φ
+    (35° → 0.469), and the thesis' K = 0.38 only on the thesis' own scene; McLean's m (a
+    flowing hopper's radial stress field) and Walker's passive state appear only on the
+    discharge plot, Walker's active state only on the filling plot, each with its F and m."""
+    ch6 = _theory_labels(tmp_path, "flat_bottom_ch6.toml", "fill")
+    assert any("K = 0.469 (EN 1991-4" in x and "φ 35.0°" in x for x in ch6)
+    assert any("K = 0.429 (the solid's own" in x for x in ch6)  # no snapshot: ν/(1 − ν) > the cone's 0.27
+    assert any("K = 0.38 (the thesis')" in x for x in ch6)
+    mine = _theory_labels(tmp_path, "flat_bottom_ch6.toml", "fill", ['title="my_silo"'])
+    assert not any("thesis" in x for x in mine) and any("EN 1991-4" in x for x in mine)
+    fill = _theory_labels(tmp_path, "hopper_ch4.toml", "fill")
+    dis = _theory_labels(tmp_path, "hopper_ch4.toml", "discharge", ['title="ch4_discharge"'])
+    assert not any("McLean" in x for x in fill) and any("McLean" in x and "m = 2μ/tan α" in x for x in dis)
+    assert any("Walker κ = -1 (active), φ = 30.0°: F" in x for x in fill)
+    assert any("Walker κ = +1 (passive)" in x for x in dis) and not any("κ = +1" in x for x in fill)
+    assert "EN 1991-4 filling" in fill and "EN 1991-4 discharge" in dis

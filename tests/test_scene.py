@@ -132,11 +132,33 @@ def test_poisson_ratio_out_of_range(nu):
                  "material.poisson_ratio", f"= {nu:g}", "(-1, 0.5)")
 
 
-@pytest.mark.parametrize("key,value,text", [("friction_angle", 75.0, "[0, 70)"),
-                                            ("friction_angle", -5.0, "[0, 70)"),
-                                            ("dilation_angle", 40.0, "exceeds friction_angle")])
+@pytest.mark.parametrize("key,value,text", [("friction_angle", 75.0, "(0, 70)"),
+                                            ("friction_angle", -5.0, "(0, 70)"),
+                                            ("friction_angle", 0.0, "(0, 70)"),
+                                            ("friction_angle", 65.0, "(0, 60]"),
+                                            ("dilation_angle", 40.0, "exceeds friction_angle"),
+                                            ("cone", "drucker_prager", "'compression'")])
 def test_angles_out_of_range(key, value, text):
     assert_names(refused(scene_dict(HOPPER, material={**DP, key: value})), f"material.{key}", text)
+
+
+def test_friction_angles_are_mohr_coulomb_by_default():
+    """φ, ψ are Mohr-Coulomb angles, mapped by material.cone (default compression: 30° → β
+    50.19°, ψ 10° → 20.24°); cone = "beta" takes them as the slopes themselves (up to 70°,
+    where a Mohr-Coulomb 65° is refused); the resolved TOML names both readings and reloads."""
+    import tomllib
+
+    s = load_scene(scene_dict(HOPPER, material=DP))
+    c = s.cone
+    assert (s.material.cone, c["friction_angle"]) == ("compression", 30.0)
+    assert (round(c["beta"], 2), round(c["psi_dp"], 2)) == (50.19, 20.24)
+    assert "Drucker-Prager β = 50.19°" in s.to_toml().splitlines()[0]
+    lit = load_scene(scene_dict(HOPPER, material={**DP, "friction_angle": 65.0, "cone": "beta"}))
+    assert (lit.cone["beta"], lit.cone["psi_dp"]) == (65.0, 10.0)
+    assert load_scene(tomllib.loads(lit.to_toml())).to_dict() == lit.to_dict()
+    assert load_scene(SCENES / "hopper_ch4_literal_beta.toml").cone["beta"] == 30.0
+    assert load_scene(SCENES / "flat_bottom_ch6.toml").material.max_dilation == 0.05  # critical state by default
+    assert load_scene(scene_dict(HOPPER, material={**DP, "model": "elastic"})).cone is None
 
 
 def test_hopper_half_angle_out_of_range():

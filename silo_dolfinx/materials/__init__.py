@@ -8,18 +8,21 @@ from silo_dolfinx.materials.base import Material
 from silo_dolfinx.materials.drucker_prager import DruckerPrager
 from silo_dolfinx.materials.elastic import Elastic
 from silo_dolfinx.materials.non_coaxial import NonCoaxial
+from silo_dolfinx.theory import drucker_prager_cone
 
 
 def make_material(m) -> Material:
-    """The material of a resolved [material] section."""
+    """The material of a resolved [material] section; its Mohr-Coulomb angles become the
+    Drucker-Prager slopes by ``m["cone"]`` (:func:`silo_dolfinx.theory.drucker_prager_cone`)."""
     if m["model"] == "elastic":
         return Elastic(m["youngs_modulus"], m["poisson_ratio"], m["density"])
+    beta, psi = drucker_prager_cone(m["friction_angle"], m["dilation_angle"], m["cone"])
     if m["model"] == "drucker_prager":
-        return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
-                             m["dilation_angle"], m["cohesion"], m["max_dilation"])
+        return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], beta, psi, m["cohesion"],
+                             m["max_dilation"])
     if m["model"] == "non_coaxial":
-        return NonCoaxial(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
-                          m["dilation_angle"], m["cohesion"], m["noncoaxial_modulus"], m["max_dilation"])
+        return NonCoaxial(m["youngs_modulus"], m["poisson_ratio"], m["density"], beta, psi, m["cohesion"],
+                          m["noncoaxial_modulus"], m["max_dilation"])
     raise ValueError(f"[material] model = {m['model']!r}: unknown")  # the scene schema prevents this
 
 

@@ -86,6 +86,33 @@ class Scene:
             self._outline = outline_from_geometry(self._data["geometry"])
         return self._outline
 
+    @property
+    def cone(self) -> dict[str, Any] | None:
+        """The material's angles as given (φ, ψ: Mohr-Coulomb unless cone = "beta") and the
+        Drucker-Prager slopes they map to (β, ψ_DP), in degrees; None for an elastic solid."""
+        m = self.material
+        if "friction_angle" not in m:
+            return None
+        from silo_dolfinx.theory import drucker_prager_cone, mohr_coulomb_angle
+
+        beta, psi_dp = drucker_prager_cone(m.friction_angle, m.dilation_angle, m.cone)
+        phi = m.friction_angle if m.cone != "beta" else mohr_coulomb_angle(beta, "compression")
+        return {"cone": m.cone, "friction_angle": m.friction_angle, "dilation_angle": m.dilation_angle,
+                "beta": beta, "psi_dp": psi_dp, "phi_mohr_coulomb": phi}
+
+    def cone_text(self) -> str:
+        """One line: what the material's angles resolve to (for silo check, scene.toml, logs)."""
+        c = self.cone
+        if c is None:
+            return "elastic solid: no friction angle"
+        if c["cone"] == "beta":
+            return (f"friction_angle {c['beta']:g}° and dilation_angle {c['psi_dp']:g}° are the Drucker-Prager "
+                    f"slopes β, ψ (cone = \"beta\"); in axisymmetric compression β is Mohr-Coulomb φ = "
+                    f"{c['phi_mohr_coulomb']:.2f}°")
+        return (f"Mohr-Coulomb friction_angle φ = {c['friction_angle']:g}°, dilation_angle ψ = "
+                f"{c['dilation_angle']:g}° -> Drucker-Prager β = {c['beta']:.2f}°, ψ_DP = {c['psi_dp']:.2f}° "
+                f"(cone = \"{c['cone']}\")")
+
     def to_dict(self) -> dict[str, Any]:
         import copy
 
@@ -95,7 +122,7 @@ class Scene:
         """The resolved scene as TOML: loading it again gives the same scene."""
         d = self.to_dict()
         d.pop("base", None)
-        lines = [f"{k} = {_toml_value(d[k])}" for k in ("title", "description")]
+        lines = [f"# {self.cone_text()}"] + [f"{k} = {_toml_value(d[k])}" for k in ("title", "description")]
         for s in SECTIONS:
             lines += ["", f"[{s.name}]"] + [f"{k} = {_toml_value(v)}" for k, v in d[s.name].items()]
         return "\n".join(lines) + "\n"
@@ -348,7 +375,7 @@ def _check_value(section: str, k: Key, v) -> list[Problem]:
         return [Problem(section, k.name, f"= {v!r}: wrong type, expected an integer.{fix}")]
     if k.kind == "choice" and v not in k.choices:
         return [Problem(section, k.name, f"= {v!r} is not allowed: must be {k.range_text()}."
-                        + _suggest(v, k.choices))]
+                        + (_suggest(v, k.choices) or fix))]
     if k.kind in ("float", "int"):
         if isinstance(v, float) and not math.isfinite(v):
             return [Problem(section, k.name, f"= {v!r}: must be finite, {k.range_text()}.{fix}")]
@@ -399,12 +426,7 @@ def _suggest(name: str, names) -> str:
 
 def _cross_checks(out: dict[str, Any]) -> list[Problem]:
     p: list[Problem] = []
-    m = out["material"]
-    if "dilation_angle" in m and m["dilation_angle"] > m["friction_angle"]:
-        p.append(Problem("material", "dilation_angle", f"= {_fmt(m['dilation_angle'])} exceeds "
-                         f"friction_angle = {_fmt(m['friction_angle'])}: dilation may not exceed "
-                         "friction (that would create energy). Fix: dilation_angle ≤ friction_angle "
-                         "(equal = associated flow)."))
+    p += _cone_checks(out["material"])
     w = out["wall"]
     if "mu_kinetic" in w and w["mu_kinetic"] > w["mu_static"]:
         p.append(Problem("wall", "mu_kinetic", f"= {_fmt(w['mu_kinetic'])} exceeds mu_static = "
@@ -423,6 +445,35 @@ def _cross_checks(out: dict[str, Any]) -> list[Problem]:
         p.append(Problem("fill", "duration", "= 0: filling by layers or ramp needs time. Fix: e.g. "
                          "duration = 10.0, or method = \"k0\" to start from a geostatic state."))
     return p
+
+
+# The return map's range: tan β < 3 keeps a cohesionless fill's active ratio (3 − tan β)/(3 + 2 tan β)
+# positive; 70° leaves a margin.
+BETA_MAX = 70.0
+PHI_MAX = 60.0  # Mohr-Coulomb angles beyond this are not granular solids (compression cone: β 67.7°)
+
+
+def _cone_checks(m: dict[str, Any]) -> list[Problem]:
+    """φ and ψ against each other and, mapped by ``cone``, against the return map's range."""
+    if "friction_angle" not in m:
+        return []
+    from silo_dolfinx.theory import drucker_prager_cone
+
+    phi, psi, cone = m["friction_angle"], m["dilation_angle"], m["cone"]
+    if psi > phi:
+        return [Problem("material", "dilation_angle", f"= {_fmt(psi)} exceeds friction_angle = {_fmt(phi)}: "
+                        "dilation may not exceed friction (that would create energy). Fix: dilation_angle "
+                        "≤ friction_angle (equal = associated flow).")]
+    if cone != "beta" and phi > PHI_MAX:
+        return [Problem("material", "friction_angle", f"= {_fmt(phi)}° with cone = {cone!r}: a Mohr-Coulomb "
+                        f"angle must be in (0, {PHI_MAX:g}]°. Fix: e.g. `friction_angle = 30`, or cone = "
+                        "\"beta\" if the angle is a Drucker-Prager slope.")]
+    beta, _ = drucker_prager_cone(phi, psi, cone)
+    if beta >= BETA_MAX:
+        return [Problem("material", "friction_angle", f"= {_fmt(phi)}° maps to the Drucker-Prager slope β = "
+                        f"{beta:.2f}° under cone = {cone!r}, beyond the return map's range (β < {BETA_MAX:g}°). "
+                        "Fix: a smaller friction_angle, or another cone.")]
+    return []
 
 
 def _resolve_derived(out: dict[str, Any]) -> list[Problem]:

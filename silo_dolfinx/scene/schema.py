@@ -194,8 +194,13 @@ GEOMETRY = Section(
 
 MATERIAL = Section(
     "material",
-    "The granular solid. Drucker-Prager in the thesis' convention: q = sqrt(3 J2), yield "
-    "q = p tan(friction_angle) + cohesion, plastic potential slope tan(dilation_angle).",
+    "The granular solid. Friction and dilation angles are Mohr-Coulomb angles φ, ψ (as silo "
+    "engineers quote them: EN 1991-4 Annex E, shear-cell tests), mapped to the Drucker-Prager "
+    "cone of the return map by `cone`: yield q = p tan β + cohesion, plastic potential slope "
+    "tan ψ_DP (q = sqrt(3 J2), p the mean pressure, compression +). The default matches the "
+    "cones in axisymmetric compression, tan β = 6 sin φ/(3 − sin φ) (φ 30° → β 50.19°, 35° → "
+    "54.81°, 40° → 58.57°), ψ by the same rule; `cone = \"beta\"` reads the angles as β, ψ_DP "
+    "themselves (the thesis' stated convention). `silo check` prints the β it resolves to.",
     keys=(
         C("model", ("elastic", "drucker_prager", "non_coaxial"),
           doc="elastic: linear elastic; drucker_prager: elastic-perfectly plastic, "
@@ -208,14 +213,27 @@ MATERIAL = Section(
     variants={
         "elastic": (),
         "drucker_prager": (
-            F("friction_angle", unit="deg", doc="Drucker-Prager β: slope of the yield line in the "
-              "p-q plane (β = 30° gives q/p = 0.577).", lo=0.0, hi=70.0, hi_open=True, example=30.0),
-            F("dilation_angle", 0.0, "deg", "ψ: slope of the plastic potential in the p-q plane "
+            F("friction_angle", unit="deg", doc="φ: Mohr-Coulomb angle of internal friction, in (0, 60]° "
+              "(with cone = \"beta\": the Drucker-Prager slope β itself, in (0, 70)°).",
+              lo=0.0, hi=70.0, lo_open=True, hi_open=True, example=30.0),
+            F("dilation_angle", 0.0, "deg", "ψ: Mohr-Coulomb dilation angle, mapped like φ "
               "(≤ friction_angle; equal = associated).", lo=0.0, hi=70.0, hi_open=True),
-            F("cohesion", 1.0, "Pa", "d: yield q at p = 0.", **NONNEG),
-            F("max_dilation", 0.0, "-", "Volumetric plastic strain at which dilation stops (ψ → 0: the "
-              "critical state of a sheared granular solid, e.g. 0.05). 0 = dilation never stops (the "
-              "thesis' Drucker-Prager: near a hopper outlet the density then keeps falling).", **NONNEG),
+            C("cone", ("compression", "extension", "plane_strain", "plane_strain_zero_dilation", "beta"),
+              "compression",
+              "How φ, ψ become the Drucker-Prager slopes β, ψ_DP. compression: the cones meet in "
+              "axisymmetric compression, tan β = 6 sin φ/(3 − sin φ) (outer cone; a fill settles in "
+              "this state); extension: tan β = 6 sin φ/(3 + sin φ) (inner cone); plane_strain: the "
+              "plane-strain limit load, tan β = 3√3 tan φ/√(9 + 12 tan² φ) for ψ = φ, else "
+              "tan β = √3 sin φ; plane_strain_zero_dilation: tan β = √3 sin φ, tan ψ_DP = √3 sin ψ "
+              "(the thesis' ch. 8 choice); beta: no mapping, the angles are β and ψ_DP."),
+            F("cohesion", 1.0, "Pa", "d: yield q at p = 0. The tension cut-off (steep cones, "
+              "tan β > 1.5) keeps every principal stress below the cone's apex tension d/tan β.", **NONNEG),
+            F("max_dilation", 0.05, "-", "Critical state: the plastic volumetric strain tan ψ_DP · ε̄p "
+              "at which dilation stops (ψ → 0; a sheared sand reaches its critical void ratio). "
+              "0.05 is the dilation of a loosely poured sand (relative density ≈ 37 %, Toyoura "
+              "void ratios) to its critical void ratio at silo stresses; 0.036-0.10 spans relative "
+              "densities 30-60 % (README, 'Friction angles'). 0 = dilation never stops (the "
+              "thesis' Drucker-Prager: the density near an outlet then keeps falling).", **NONNEG),
         ),
     },
 )

@@ -17,7 +17,7 @@
 #
 #     mpirun -n 2 python demos/hopper_discharge.py            # the full 72 s scene (~15 min on 2 cores)
 #     mpirun -n 2 python demos/hopper_discharge.py --quick    # 5 s of discharge, for a first look
-#     mpirun -n 2 python demos/hopper_discharge.py --mohr-coulomb   # the thesis' 30° as a Mohr-Coulomb angle
+#     mpirun -n 2 python demos/hopper_discharge.py --literal-beta   # the thesis' 30° read as β itself
 #
 # Results go to `results/hopper_ch3_lagrangian/`, `results/hopper_ch3_ale/`,
 # `results/hopper_ch4/` and `results/fig_3_18.png`.
@@ -31,7 +31,7 @@ import numpy as np
 from mpi4py import MPI
 
 import silo_dolfinx  # noqa: F401  (imports dolfinx_solver first where it exists)
-from silo_dolfinx import theory
+from silo_dolfinx import analysis, theory
 from silo_dolfinx.report import make_report, read_csv
 from silo_dolfinx.scene import load_scene
 from silo_dolfinx.simulation import run
@@ -42,8 +42,8 @@ OUT = Path("results")
 comm = MPI.COMM_WORLD
 ap = argparse.ArgumentParser()
 ap.add_argument("--quick", action="store_true", help="5 s of discharge instead of 60 s")
-ap.add_argument("--mohr-coulomb", dest="mohr_coulomb", action="store_true",
-                help="part 2 with the cone matched to Mohr-Coulomb 30° (hopper_ch4_mohr_coulomb.toml)")
+ap.add_argument("--literal-beta", dest="literal_beta", action="store_true",
+                help="part 2 with the 30° read as the Drucker-Prager β itself (hopper_ch4_literal_beta.toml)")
 args, _ = ap.parse_known_args()
 
 
@@ -100,15 +100,18 @@ if comm.rank == 0:
 # The scene file is the whole definition of the run. With `--quick` only the discharge is
 # shortened. Progress (step, simulated time, ETA) is printed on rank 0.
 #
-# The thesis states its friction angle as a Drucker–Prager slope (β = 30°: q/p = 0.577 at
-# yield), and that is what `hopper_ch4.toml` uses: a weak solid (Mohr–Coulomb 15.3° in
-# compression) that drains at 1.7 m/s. With `--mohr-coulomb` the 30° is read as a
-# Mohr–Coulomb angle and the cone matched to it in compression (β = 50.19°,
-# `hopper_ch4_mohr_coulomb.toml`) is used instead: it drains at the thesis' 1.0 m/s.
+# The scene's angles are Mohr–Coulomb angles (φ 30°, ψ 10°), mapped to the Drucker–Prager
+# cone matched in axisymmetric compression (β = 50.19°, ψ_DP = 20.24°), with a critical state
+# (dilation stops after 5 % plastic volume change, `material.max_dilation`). The thesis states
+# its 30° as the slope β itself (q/p = 0.577), but its 1.0 m/s outlet velocity, its ch. 6
+# Janssen K = 0.38 on a sliding wall and its ch. 8 hopper that does not yield before opening
+# come out only under the Mohr–Coulomb reading; `--literal-beta` runs the literal one
+# (`hopper_ch4_literal_beta.toml`): a weak solid (Mohr–Coulomb 15.3° in compression) that
+# drains at 1.6–1.7 m/s.
 
 # +
 sets = ["discharge.duration=5.0"] if args.quick else []
-name = "hopper_ch4_mohr_coulomb" if args.mohr_coulomb else "hopper_ch4"
+name = "hopper_ch4_literal_beta" if args.literal_beta else "hopper_ch4"
 scene = load_scene(HERE / "scenes" / f"{name}.toml", sets)
 out = OUT / name
 summary = run(scene, out, comm)
@@ -121,9 +124,11 @@ if comm.rank == 0:
 #
 # Beverloo's correlation (eq. 4-6, C = 0.58, λ = 1.5, particle size 0) for D0 = 0.2 m gives
 # 32.5 kg/s; the thesis' outlet velocity is steady at ≈ 1.0 m/s about 2 s after opening, and
-# its mass flow is the nominal density × outlet area × that velocity. Ours counts the mass
-# that actually leaves: lower than ρ0 A v because the solid dilates on its way out (ψ = 10°,
-# see the lowest cell density; `material.max_dilation` stops that).
+# its mass flow is the nominal density × outlet area × that velocity (ρ0·A·v, reported beside
+# ours, labelled). Ours is the mass that actually leaves, counted by the remap at the outlet,
+# in each 10 s window of the discharge: the bar is that every window is within 15 % of
+# Beverloo — no decay. (Without a critical state the solid dilates for as long as it shears
+# and that flow decays; see `benchmarks/critical_state.py`.)
 # "Steady" here: the 0.5 s running mean of the outlet velocity stays within 10 % of its
 # final-half mean from that time on.
 
@@ -144,14 +149,19 @@ if comm.rank == 0:
     t_steady = float(t[np.nonzero(bad)[0][-1] + 1]) if bad.any() else 0.0
     W = d["mean_mass_flow_rate_second_half"]
     Wb = theory.beverloo(scene.material.density, 2 * scene.geometry.outlet_radius)
+    starts, Ww = analysis.windowed_mass_flow(t, o["discharged_mass"], min(10.0, t[-1] / 2), t_start=0.0)
+    dev = 100 * (Ww - Wb) / Wb
     rows = [("outlet velocity steady after opening", f"{t_steady:.2f} s", "≈ 2 s", "≤ 3 s"),
             ("mean outlet velocity (second half)", f"{v_late:.3f} m/s", "≈ 1.0 m/s", "0.8–1.2 m/s"),
-            ("mean mass flow (second half)", f"{W:.2f} kg/s ({100 * (W - Wb) / Wb:+.1f} % vs Beverloo {Wb:.1f})",
+            ("mass flow, mass leaving (second half)", f"{W:.2f} kg/s ({100 * (W - Wb) / Wb:+.1f} % vs Beverloo {Wb:.1f})",
              "≈ 32 kg/s", "within 15 %"),
-            ("mass flow at nominal density (ρ0 A v)",
-             f"{scene.material.density * np.pi * scene.geometry.outlet_radius**2 * v_late:.2f} kg/s", "≈ 32 kg/s",
-             "(thesis' definition)"),
-            ("lowest cell density, end (ψ dilation)", f"{d['density_min']:.0f} kg/m³", "", ""),
+            (f"mass leaving per {starts[1] - starts[0] if len(starts) > 1 else 0:g} s window",
+             ", ".join(f"{w:.1f}" for w in Ww) + f" kg/s ({dev.min():+.0f} to {dev.max():+.0f} %)", "",
+             "each within 15 %"),
+            ("nominal mass flow ρ0·A·v (thesis' definition, 2nd half)",
+             f"{d['mean_nominal_mass_flow_rate_second_half']:.2f} kg/s", "≈ 32 kg/s", "(reported)"),
+            ("lowest cell density, end", f"{d['density_min']:.0f} kg/m³", "", ""),
+            ("Δt at opening → end of discharge", f"{1e3 * o['dt'][0]:.3f} → {1e3 * o['dt'][-1]:.3f} ms", "", ""),
             ("mass balance error (max)", f"{d['mass_balance_error_max']:.2e}", "", "< 0.5 %"),
             ("energy balance error (max)", f"{100 * summary['energy_balance_error_max']:.3f} %", "", "< 1 %"),
             ("min scaled Jacobian (discharge)", f"{np.nanmin(q['min_scaled_jacobian']):.3f}", "", "> 0"),

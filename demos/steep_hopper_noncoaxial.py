@@ -8,7 +8,11 @@
 # The same steep hopper (half-angle 10°, ~1,300 cells) is filled by a gravity ramp, stored
 # and discharged freely with ALE, once with coaxial Drucker–Prager and once with the
 # non-coaxial model (H_nc/G = 0.263, Table 8-2's ratio). Wall normal pressure profiles are
-# compared at the end of filling and averaged over the discharge.
+# compared at the end of filling and averaged over the discharge. As in every scene, the
+# friction angle (35°) is a Mohr–Coulomb angle mapped to the cone matched in compression
+# (β = 54.81°): the fill then stays elastic ("the solid does not yield until some time after
+# discharge", as the thesis says); the trend of the discharge pressures is not reproduced
+# with the data the thesis gives (README).
 #
 # Run it with
 #

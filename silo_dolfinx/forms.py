@@ -94,7 +94,6 @@ class AxisymmetricForms:
             self.points,
         )
         self._metadata = {"quadrature_degree": QUADRATURE_DEGREE}
-        self.num_owned_cells = mesh.topology.index_map(mesh.topology.dim).size_local
 
     # ------------------------------------------------------------------ forms on a cell list
     def _dx(self, cells: np.ndarray):
@@ -157,10 +156,3 @@ def _add():
     from dolfinx import la
 
     return la.InsertMode.add
-
-
-def assemble_into(b: np.ndarray, form: fem.Form, coeffs=None) -> np.ndarray:
-    """Zero ``b``, assemble ``form`` into it and accumulate ghost contributions."""
-    b[:] = 0.0
-    fem.assemble_vector(b, form, constants=np.zeros(0), coeffs={} if coeffs is None else coeffs)
-    return b

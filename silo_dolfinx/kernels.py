@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
 
 TWO_PI = 2.0 * math.pi
 

@@ -177,7 +177,3 @@ class ALE:
                 "discharged_mass": c.allreduce(st.outflow_mass, op=MPI.SUM),
                 "smoothing_backoffs": self.smoother.backoffs,
                 "seconds": {k: c.allreduce(v, op=MPI.MAX) for k, v in st.seconds.items()}}
-
-    def mesh_quality(self) -> tuple[float, float]:
-        """Global (min scaled Jacobian, max aspect ratio) of the current mesh."""
-        return self.smoother.quality(np.ascontiguousarray(self.mesh.geometry.x[:, :2]))

@@ -15,7 +15,6 @@ the classic coloured-layer picture of flow patterns.
 
 from __future__ import annotations
 
-import math
 
 import numba
 import numpy as np

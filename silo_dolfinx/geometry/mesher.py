@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from silo_dolfinx.geometry.shapes import Outline
-from silo_dolfinx.geometry.wall import Arc, Segment
+from silo_dolfinx.geometry.wall import Segment
 
 MATERIAL = 1
 WALL, OUTLET, TOP, AXIS = 1, 2, 3, 4

@@ -1,0 +1,95 @@
+"""What each effect of a scene costs: the discharge step with every effect on, against the same
+step with one effect switched off (or made cheaper), as ratios measured in one run.
+
+    python benchmarks/effects_cost.py                 # serial, median of 3 (≈ 3 min)
+    mpirun -n 2 python benchmarks/effects_cost.py --repeat 1
+
+The test problem is the ch. 3 hopper (`hopper_ch3_ale.toml`, 645 cells) started from a K0
+state and discharged freely for ``--discharge`` s. "All on" is the most expensive scene:
+non-coaxial plasticity, eq. 7-1 wall friction, bulk viscosity, ALE every 10 steps with 120
+tracers, wall histories at 200 Hz and field output every 0.1 s. Each row switches one of them
+off (or to its cheaper setting) and reports the discharge stage's wall-clock per step (output
+included) and the effect's share of the all-on step, 1 − t_without / t_all_on. A share near 0
+(within the run-to-run noise, the spread column) means an effect that costs nothing when off
+and little when on; what a scene switches off is never constructed (tests/test_explicit.py
+checks that for the material state).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import silo_dolfinx  # noqa: F401  (imports dolfinx_solver first where it exists)
+
+HERE = Path(__file__).resolve().parents[1]
+SCENE = HERE / "demos" / "scenes" / "hopper_ch3_ale.toml"
+
+ALL_ON = ['material.model="non_coaxial"', "material.noncoaxial_modulus=5.6e4", 'wall.friction="velocity_dependent"',
+          "wall.mu_static=0.3", "wall.mu_kinetic=0.2", "wall.decay=2.0", "numerics.bulk_viscosity=[0.06, 1.2]",
+          "ale.enabled=true", "ale.frequency=10", "ale.tracer_rows=10", "ale.tracer_columns=12",
+          "output.history_rate=200.0", "output.field_interval=0.1"]
+
+# effect -> (what it becomes, the overrides that switch it)
+EFFECTS = {
+    "non-coaxial term": ("coaxial Drucker-Prager", ['material.model="drucker_prager"']),
+    "plasticity": ("elastic", ['material.model="elastic"']),
+    "eq. 7-1 friction": ("Coulomb", ['wall.friction="coulomb"', "wall.mu=0.3"]),
+    "wall friction": ("smooth wall", ['wall.friction="none"']),
+    "bulk viscosity": ("off", ["numerics.bulk_viscosity=[0.0, 0.0]"]),
+    "ALE every 10 steps": ("every 40", ["ale.frequency=40"]),
+    "ALE": ("Lagrangian", ["ale.enabled=false"]),
+    "tracers (120)": ("none", ["ale.tracer_rows=0"]),
+    "histories at 200 Hz": ("at 10 Hz", ["output.history_rate=10.0"]),
+    "field output every 0.1 s": ("none", ["output.field_interval=1000.0"]),
+}
+
+
+def step_cost(sets: list[str], discharge: float, comm) -> float:
+    """Wall-clock per step of the discharge stage (s)."""
+    from silo_dolfinx.scene import load_scene
+    from silo_dolfinx.simulation import run
+
+    sc = load_scene(SCENE, ['fill.method="k0"', "store.duration=0.0", f"discharge.duration={discharge}",
+                            *ALL_ON, *sets])
+    out = Path(comm.bcast(tempfile.mkdtemp(prefix="fx_") if comm.rank == 0 else None, root=0))
+    summary = run(sc, out, comm, progress_every=1e9)
+    d = next(st for st in summary["stages"] if st["name"] == "discharge")
+    return d["wall_clock_s"] / d["steps"]
+
+
+def main() -> None:
+    from mpi4py import MPI
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--discharge", type=float, default=0.5,
+                    help="seconds of free discharge (default 0.5: the Lagrangian case tangles near 0.9 s)")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    comm = MPI.COMM_WORLD
+    t0 = time.perf_counter()
+    step_cost([], 0.05, comm)  # compile everything once
+    cases = {"all on": []} | {k: v[1] for k, v in EFFECTS.items()}
+    times = {k: [] for k in cases}
+    for _ in range(args.repeat):  # interleaved, so that drifts of the machine hit every case alike
+        for name, sets in cases.items():
+            times[name].append(step_cost(sets, args.discharge, comm))
+    if comm.rank:
+        return
+    base = statistics.median(times["all on"])
+    spread = (max(times["all on"]) - min(times["all on"])) / base if len(times["all on"]) > 1 else 0.0
+    print(f"\n{SCENE.name}: K0 start, {args.discharge:g} s free discharge, {comm.size} rank(s), median of "
+          f"{args.repeat}; all on: {1e3 * base:.3f} ms/step (run-to-run spread {100 * spread:.0f} %)")
+    print("| effect (all on →) | switched to | ms/step | share of the all-on step |")
+    print("|---|---|---|---|")
+    for name, (to, _) in EFFECTS.items():
+        t = statistics.median(times[name])
+        print(f"| {name} | {to} | {1e3 * t:.3f} | {100 * (1 - t / base):+.0f} % |")
+    print(f"\n(total {time.perf_counter() - t0:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()

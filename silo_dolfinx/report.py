@@ -105,7 +105,11 @@ class Report:
         out = []
         if g.shape in ("flat_bottom", "column", "bin_hopper") and mu > 0 and not discharge:
             R = {"flat_bottom": "radius", "bin_hopper": "radius", "column": "base_radius"}[g.shape]
-            out += self._janssen(z, g[R], mu, gamma, stage)
+            curves = self._janssen(z, g[R], mu, gamma, stage)
+            if g.shape == "bin_hopper":  # Janssen holds on the vertical wall, above the transition
+                below = z < sc.outline.transition_points[0][1]
+                curves = [(label, np.where(below, np.nan, p)) for label, p in curves]
+            out += curves
         if g.shape == "hopper" and mu > 0:
             alpha = hopper_half_angle(g)
             zz = np.clip(z, 0, g.height)

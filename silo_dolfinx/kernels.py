@@ -50,8 +50,10 @@ FAST = {"contract", "arcp", "reassoc", "nsz", "afn"}
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def kinematics(kin, wq, dt, bbar, deps, spin, dvol, dV, trd_cell):
+def kinematics(kin, wq, dt, bbar, out):
     """Strain increments (B-bar if ``bbar``), spin angles and volumes at quadrature points.
+
+    out = (deps, spin, dvol, dV, trd_cell) (:meth:`QuadratureData.kinematics_out`):
 
     kin   (nc, nq, 6): ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J|
     wq    (nq,): reference quadrature weights
@@ -61,6 +63,7 @@ def kinematics(kin, wq, dt, bbar, deps, spin, dvol, dV, trd_cell):
     dV    (nc·nq,) out: quadrature volume 2π r |det J| w_q (current configuration)
     trd_cell (nc,) out: volume-averaged volumetric strain rate of each cell
     """
+    deps, spin, dvol, dV, trd_cell = out
     nc, nq = kin.shape[0], kin.shape[1]
     for c in range(nc):
         vol = 0.0
@@ -125,13 +128,19 @@ def update_density(rho_old, dvol, dt, nq, bbar, rho_new):
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def closure(sig_old, sig_new, deps, dV, trd_cell, rho, L_cell, c_cell, b1, b2, bbar, nq, packed):
+def closure(points, cells, viscosity, bbar, nq, packed):
     """Force stress σ̃ into ``packed`` (nc, nq·4); returns (internal work, viscous work) increments.
+
+    points = (sig_old, sig_new, deps, dV, rho) (:meth:`QuadratureData.force_in`); cells =
+    (trd, L, c, rho) (:attr:`CellData.arrays`); viscosity = (b1, b2).
 
     σ̃ = dev σ + (p̄ + σ_bv) I with p̄ the r-weighted cell mean of the mean stress (B-bar) or
     the point value, and σ_bv the bulk-viscosity stress of the cell. ``sig_old`` is the
     rotated stress at the start of the step (for the trapezoidal internal work).
     """
+    sig_old, sig_new, deps, dV, rho = points
+    trd_cell, L_cell, c_cell = cells[0], cells[1], cells[2]
+    b1, b2 = viscosity
     nc = trd_cell.shape[0]
     w_int = 0.0
     w_visc = 0.0
@@ -171,13 +180,16 @@ def closure(sig_old, sig_new, deps, dV, trd_cell, rho, L_cell, c_cell, b1, b2, b
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def stable_dt(x, cell_nodes, rho_cell, modulus, trd_cell, b1, b2, mass_scaling, L_out, c_out, hoop=HOOP):
+def stable_dt(x, cell_nodes, cells, modulus, viscosity, mass_scaling, hoop=HOOP):
     """Smallest element stable time step (without the user's scale factor).
 
     x: mesh coordinates; cell_nodes (nc, 4): corner nodes in boundary-cycle order;
-    rho_cell: cell densities; modulus: P-wave modulus λ + 2μ. Writes each cell's
-    characteristic length and wave speed. Returns 0 for a collapsed cell.
+    cells = (trd, L, c, rho) (:attr:`CellData.arrays`): reads the cell densities and
+    volumetric strain rates, writes each cell's characteristic length and wave speed;
+    modulus: P-wave modulus λ + 2μ; viscosity = (b1, b2). Returns 0 for a collapsed cell.
     """
+    trd_cell, L_out, c_out, rho_cell = cells
+    b1, b2 = viscosity
     nc = cell_nodes.shape[0]
     dt_min = 1e300
     viscous = b1 > 0.0 or b2 > 0.0

@@ -367,7 +367,7 @@ class FieldWriter:
         s = self.model.solver
         comm = self.model.sm.comm
         x = self.model.sm.mesh.geometry.x
-        corners = x[s._active_nodes][:, :, :2]
+        corners = x[s.active_cell_nodes][:, :, :2]
         owned_nodes = np.nonzero(s.node_dof < s.n_owned)[0]
         parts = comm.gather((corners, cell_values, x[owned_nodes, :2], s.v[s.node_dof[owned_nodes]]), root=0)
         ale = self.model.ale
@@ -499,7 +499,7 @@ def _fill(model: SiloModel, recorder: Recorder, progress) -> list[dict]:
     sc = model.scene
     s = model.solver
     f = sc.fill
-    s.numerics.damping = model.fill_damping
+    s.damping = model.fill_damping
     t0, steps0, wall0 = s.t, s.steps, time.time()
     if f.method == "k0":
         model.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
@@ -538,7 +538,7 @@ def _store(model: SiloModel, recorder: Recorder, progress) -> dict:
 def _discharge(model: SiloModel, recorder: Recorder, progress) -> dict:
     sc = model.scene
     s = model.solver
-    s.numerics.damping = 0.0
+    s.damping = 0.0
     t0, steps0, wall0 = s.t, s.steps, time.time()
     model.open_outlet()
     a = sc.ale

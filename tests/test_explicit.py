@@ -38,7 +38,7 @@ def cell_means(solver, values):
 
 def settle(model, t_end):
     s = model.solver
-    s.numerics.damping = model.fill_damping
+    s.damping = model.fill_damping
     while s.t < t_end:
         s.step()
 

@@ -57,9 +57,13 @@ class DruckerPrager(Material):
     noncoaxial = 0.0  # 4G²/(H_nc + 2G): zero for the coaxial law (see non_coaxial.py)
 
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
-        return float(_update(sig, deps, state_old["eqps"], self.K, self.G, self.tan_beta, self.tan_psi,
-                             self.cohesion, self.noncoaxial, self.eqps_critical, self.tension_cutoff, sig_new,
-                             state_new["eqps"], dV))
+        return float(_update(sig, deps, state_old["eqps"], self.parameters, sig_new, state_new["eqps"], dV))
+
+    @property
+    def parameters(self) -> tuple[float, ...]:
+        """The law's constants as its kernel reads them (K, G, tan β, tan ψ, d, c_nc, ε̄_p,c, T)."""
+        return tuple(map(float, (self.K, self.G, self.tan_beta, self.tan_psi, self.cohesion, self.noncoaxial,
+                                 self.eqps_critical, self.tension_cutoff)))
 
     def yield_function(self, sig: np.ndarray) -> np.ndarray:
         """F(σ) for an (n, 4) array (≤ 0 admissible)."""
@@ -119,15 +123,17 @@ def _max_principal(s0, s1, s2, s3):
 
 
 @numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
-def _update(sig, deps, eqps, K, G, tanb, tanpsi0, d, c_nc, eqps_c, T, sig_new, eqps_new, dV):
+def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
     """The return map (module docstring) over all points, written out in scalars (the hot
     loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p.
 
+    law = (K, G, tan β, tan ψ, d, c_nc, eqps_c, T) (:attr:`DruckerPrager.parameters`).
     c_nc = 4G²/(H_nc + 2G) > 0 adds the yield-vertex non-coaxial plastic strain (eq. 8-11)
     at points that load plastically: the trial deviator loses c_nc Δe_t, Δe_t the part of
     the deviatoric strain increment tangential to the current deviator s (s : Δe_t = 0).
     Points with ε̄_p ≥ eqps_c flow at constant volume (ψ = 0: the critical state).
     T < inf: the tension cut-off (module docstring), checked at every point."""
+    K, G, tanb, tanpsi0, d, c_nc, eqps_c, T = law
     diss = 0.0
     lam = K - 2.0 * G / 3.0
     two_g = 2.0 * G

@@ -21,7 +21,6 @@ scaling changes the physics it speeds up (inertia): its error column says by how
 from __future__ import annotations
 
 import argparse
-import csv
 import statistics
 import tempfile
 import time
@@ -47,6 +46,7 @@ KNOBS = {
 def run_case(key: str, value, discharge: float) -> dict:
     from mpi4py import MPI
 
+    from silo_dolfinx.output import read_csv
     from silo_dolfinx.scene import load_scene
     from silo_dolfinx.simulation import run
 
@@ -56,13 +56,11 @@ def run_case(key: str, value, discharge: float) -> dict:
     t0 = time.perf_counter()
     summary = run(scene, out, MPI.COMM_SELF, progress_every=1e9)
     wall = time.perf_counter() - t0
-    with open(out / "wall_history.csv") as f:
-        rows = list(csv.DictReader(f))
+    h = read_csv(out / "wall_history.csv")
     t_open = next(st["t_start"] for st in summary["stages"] if st["name"] == "discharge")
-    t_half = t_open + 0.5 * discharge
-    stations = sorted({int(r["station"]) for r in rows})
-    p = np.array([np.mean([float(r["p_n"]) for r in rows if int(r["station"]) == k and float(r["t"]) >= t_half])
-                  for k in stations])
+    late = h["t"] >= t_open + 0.5 * discharge
+    stations = sorted(set(h["station"]))
+    p = np.array([h["p_n"][late & (h["station"] == k)].mean() for k in stations])
     d = next(st for st in summary["stages"] if st["name"] == "discharge")
     return {"wall": wall, "p": p, "flow": d.get("mean_mass_flow_rate_second_half", float("nan")),
             "energy": summary["energy_balance_error_max"], "steps": summary["steps"], "cells": summary["cells"]}

@@ -34,7 +34,7 @@ SCENE = HERE / "demos" / "scenes" / "hopper_ch4.toml"
 
 def run_case(max_dilation: float, discharge: float, size: float, comm) -> dict:
     from silo_dolfinx import theory
-    from silo_dolfinx.report import read_csv
+    from silo_dolfinx.output import read_csv
     from silo_dolfinx.scene import load_scene
     from silo_dolfinx.simulation import run
 

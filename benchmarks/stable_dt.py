@@ -48,7 +48,7 @@ def stable(geometry: dict, scale: float, nu: float, hoop: float, steps: int = 30
     model = SiloModel(scene, mesh_scene(scene, MPI.COMM_SELF))
     s = model.solver
     s.constraints.append(VelocityConstraint(model.outlet_dofs_all, 1))
-    model._set_contact(closed=False)
+    model.remove_gate()
     rng = np.random.default_rng(0)
     s.v[:] = 1e-6 * rng.standard_normal(s.v.shape)
     s.v[model.axis_dofs, 0] = 0.0

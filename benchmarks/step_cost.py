@@ -1,6 +1,8 @@
 """Cost of one explicit elastic-plastic step, per element and per phase.
 
     python benchmarks/step_cost.py            # 8k and 32k cells, 1 and 2 ranks, prints a table
+    python benchmarks/step_cost.py --against /path/to/other/checkout --rounds 5
+                                              # this tree against another, serial, interleaved
 
 The ch. 4 hopper (Drucker-Prager, wall friction 0.267) starts from a geostatic stress state
 under full gravity, so the return map, the wall contact and the bulk viscosity all work as in
@@ -73,7 +75,11 @@ def main():
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--sizes", nargs="+", default=list(SIZES))
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--against", type=Path, help="another checkout of the package: steps/s of both, interleaved")
+    ap.add_argument("--rounds", type=int, default=5, help="with --against: alternating measurements of each")
     args = ap.parse_args()
+    if args.against:
+        return compare(args)
     results = [measure(SIZES[n], args.blocks, args.steps) | {"case": n} for n in args.sizes]
     from mpi4py import MPI
 
@@ -101,6 +107,28 @@ def main():
               f"{100 * eff:9.0f}%")
     print("phases in µs per element-step per core; plastic points at the end: "
           + ", ".join(f"{r['case']}/{r['ranks']}: {r['plastic_points']}/{r['quadrature_points']}" for r in results))
+
+
+def compare(args) -> None:
+    """Serial steps/s of this tree and of ``--against`` (the same script, the other package on
+    PYTHONPATH), alternating so that the machine's drift hits both alike; medians and ratio."""
+    here = Path(__file__).resolve().parents[1]
+    trees = {"this tree": here, "against": args.against.resolve()}
+    rates = {k: [] for k in trees}
+    for _ in range(args.rounds):
+        for name, root in trees.items():
+            env = os.environ | {"PYTHONPATH": str(root)}
+            cmd = [sys.executable, __file__, "--worker", "--blocks", str(args.blocks), "--steps", str(args.steps),
+                   "--sizes", *args.sizes]
+            out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True).stdout
+            r = json.loads(next(line for line in out.splitlines() if line.startswith("JSON"))[4:])
+            rates[name].append([1.0 / c["seconds_per_step"] for c in r])
+    print(f"serial steps/s, median of {args.rounds} alternating rounds ({args.blocks} blocks of {args.steps} steps)")
+    print(f"{'case':>5} {'this tree':>10} {'against':>10} {'ratio':>7}")
+    for i, case in enumerate(args.sizes):
+        a, b = (float(np.median([r[i] for r in rates[k]])) for k in trees)
+        print(f"{case:>5} {a:10.1f} {b:10.1f} {a / b:7.3f}")
+    print(f"against: {args.against}")
 
 
 if __name__ == "__main__":

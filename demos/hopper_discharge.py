@@ -32,7 +32,8 @@ from mpi4py import MPI
 
 import silo_dolfinx  # noqa: F401  (imports dolfinx_solver first where it exists)
 from silo_dolfinx import analysis, theory
-from silo_dolfinx.report import make_report, read_csv
+from silo_dolfinx.output import read_csv
+from silo_dolfinx.report import make_report
 from silo_dolfinx.scene import load_scene
 from silo_dolfinx.simulation import run
 from silo_dolfinx.solver import InstabilityError

@@ -24,13 +24,13 @@
 
 # +
 import argparse
-import csv
 from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
 
 import silo_dolfinx  # noqa: F401  (imports dolfinx_solver first where it exists)
+from silo_dolfinx.output import read_csv
 from silo_dolfinx.scene import load_scene
 from silo_dolfinx.simulation import run
 
@@ -47,21 +47,19 @@ args = ap.parse_args()
 
 def profile(path):
     """Wall profile (s, z, p_n) of a stage, sorted by height."""
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    z = np.array([float(r["z"]) for r in rows])
-    p = np.array([float(r["p_n"]) for r in rows])
+    w = read_csv(path)
+    z, p = w["z"], w["p_n"]
     k = np.argsort(z)
     return z[k], p[k]
 
 
 def discharge_mean(path, t_from):
     """Time-averaged p_n at each wall station over t ≥ t_from (eq. 4-9)."""
-    with open(path) as f:
-        rows = [r for r in csv.DictReader(f) if float(r["t"]) >= t_from]
-    st = sorted({int(r["station"]) for r in rows})
-    z = np.array([np.mean([float(r["z"]) for r in rows if int(r["station"]) == k]) for k in st])
-    p = np.array([np.mean([float(r["p_n"]) for r in rows if int(r["station"]) == k]) for k in st])
+    h = read_csv(path)
+    late = h["t"] >= t_from
+    st = sorted(set(h["station"][late]))
+    z = np.array([h["z"][late & (h["station"] == k)].mean() for k in st])
+    p = np.array([h["p_n"][late & (h["station"] == k)].mean() for k in st])
     return z, p
 # -
 
@@ -139,13 +137,10 @@ if comm.rank == 0:
 # +
 def end_state(name):
     """(mass flow of the last 2 s (kg/s), min cell density, max ε̄p, min scaled Jacobian)."""
-    with open(OUT / name / "outlet.csv") as f:
-        rows = list(csv.DictReader(f))
-    t = np.array([float(r["t"]) for r in rows])
-    w = np.mean([float(r["mass_flow_rate"]) for r, ti in zip(rows, t) if ti >= t[-1] - 2.0])
+    o = read_csv(OUT / name / "outlet.csv")
+    w = float(np.mean(o["mass_flow_rate"][o["t"] >= o["t"][-1] - 2.0]))
     snap = np.load(sorted((OUT / name / "fields").glob("snapshot_*.npz"))[-1])
-    with open(OUT / name / "mesh_quality.csv") as f:
-        sj = float(list(csv.DictReader(f))[-1]["min_scaled_jacobian"])
+    sj = float(read_csv(OUT / name / "mesh_quality.csv")["min_scaled_jacobian"][-1])
     return w, float(snap["cell_density"].min()), float(snap["cell_eqps"].max()), sj
 
 

@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from silo_dolfinx.geometry.cells import cell_areas
+from silo_dolfinx.invariants import p_q
+
 
 # ---------------------------------------------------------------------------- time series
 def time_average(t, values, t_start: float, t_end: float):
@@ -206,11 +209,7 @@ def effective_transition(z_rows, r_fcb, wall_radius):
 # ---------------------------------------------------------------------------- stress measures
 def invariants(sig):
     """(p, q) of (n, 4) stresses: p = −tr σ/3 (compression +), q = √(3 J2)."""
-    s = np.atleast_2d(np.asarray(sig, float))
-    m = s[:, :3].mean(axis=1)
-    d = s[:, :3] - m[:, None]
-    j2 = 0.5 * (d**2).sum(axis=1) + s[:, 3] ** 2
-    return -m, np.sqrt(3.0 * j2)
+    return p_q(sig)
 
 
 def stress_ratio(sig, p_min: float = 1e-9):
@@ -244,14 +243,6 @@ def strain_rate_orientation(d):
     rates (rr, zz, θθ, γ_rz) with engineering shear."""
     d = np.atleast_2d(np.asarray(d, float))
     return principal_angle(d[:, 0], d[:, 1], 0.5 * d[:, 3], "largest")
-
-
-# ---------------------------------------------------------------------------- sections of a snapshot
-def cell_areas(corners) -> np.ndarray:
-    """Areas of quadrilaterals (n, 4, 2) given in boundary-cycle order."""
-    c = np.asarray(corners, float)
-    x, y = c[:, :, 0], c[:, :, 1]
-    return 0.5 * np.abs(np.sum(x * np.roll(y, -1, 1) - np.roll(x, -1, 1) * y, axis=1))
 
 
 def section_average(corners, values, z) -> np.ndarray:

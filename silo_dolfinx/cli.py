@@ -5,7 +5,7 @@
     silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
     silo report results/NAME                           figures + report.md from a results folder
     silo shear --out results/shear [--cone thesis]     the ch. 8 simple-shear study (Table 8-1)
-    silo schema                                        print the scene reference (Markdown)
+    silo schema [--results]                            print the scene (or results-file) reference
 
 Bad input is reported before any meshing or time-stepping, one line per problem naming the
 key, its value, what is allowed and a fix; the exit status is then 2.
@@ -51,7 +51,8 @@ def _parser() -> argparse.ArgumentParser:
                     "the ch. 8 closed forms are plane-strain ones), compression, extension, or the thesis' "
                     "own choice tan β = √3 sin φ (thesis = plane_strain_zero_dilation)")
     sp.add_argument("--gamma", type=float, default=0.1, help="final shear strain (default 0.1)")
-    sub.add_parser("schema", help="print the scene file reference (Markdown)")
+    sp = sub.add_parser("schema", help="print the scene file reference (Markdown)")
+    sp.add_argument("--results", action="store_true", help="the results-file reference instead (docs/results.md)")
     return p
 
 
@@ -59,8 +60,10 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         if args.command == "schema":
-            from silo_dolfinx.scene.schema import markdown
-
+            if args.results:
+                from silo_dolfinx.output.schema import markdown
+            else:
+                from silo_dolfinx.scene.schema import markdown
             print(markdown(), end="")
             return 0
         if args.command == "check":

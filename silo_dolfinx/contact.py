@@ -113,8 +113,13 @@ class WallContact:
         _open_ends(proj.distance, proj.s, self._p, self._ends, self.wall.length)
         self.s[:] = proj.s
         self.normal[:] = proj.normal
-        _correct(v, self.dofs, mass, proj.distance, proj.normal, proj.piece, self._law_table, dt, dt_avg,
-                 self._frictionless, self.normal_force, self.shear_force, self.slip_velocity, self.in_contact)
+        _correct(v, self.dofs, mass, (proj.distance, proj.normal, proj.piece), self._law_table,
+                 (dt, dt_avg, self._frictionless), self.outputs)
+
+    @property
+    def outputs(self) -> tuple:
+        """(normal force, shear force, slip velocity, in contact) per node, as the kernel writes them."""
+        return self.normal_force, self.shear_force, self.slip_velocity, self.in_contact
 
 
 @numba.njit(cache=True)
@@ -141,7 +146,13 @@ def _predict(p, v, dofs, dt):
 
 
 @numba.njit(cache=True)
-def _correct(v, dofs, mass, gap, normal, piece, laws, dt, dt_avg, frictionless, N_out, T_out, slip_out, contact):
+def _correct(v, dofs, mass, projection, laws, steps, out):
+    """projection = (gap, normal, piece) of each node's predicted position; laws: the friction
+    table (one row per wall piece); steps = (Δt, Δt̄, frictionless); out = (N, T, slip,
+    in_contact) per node (:attr:`WallContact.outputs`)."""
+    gap, normal, piece = projection
+    dt, dt_avg, frictionless = steps
+    N_out, T_out, slip_out, contact = out
     for k in range(dofs.shape[0]):
         i = dofs[k]
         g = gap[k]

@@ -20,8 +20,6 @@ missing is named in the report.
 
 from __future__ import annotations
 
-import csv
-import json
 import math
 import sys
 from pathlib import Path
@@ -30,27 +28,7 @@ import numpy as np
 
 from silo_dolfinx import analysis, theory
 from silo_dolfinx.geometry.shapes import hopper_half_angle
-
-
-def read_csv(path: str | Path) -> dict[str, np.ndarray] | None:
-    """A results CSV as {column: array} (numbers as floats, empty cells NaN, text columns as
-    strings); None if the file is missing or has no data row."""
-    path = Path(path)
-    if not path.is_file():
-        return None
-    with open(path) as f:
-        rows = list(csv.reader(f))
-    if len(rows) < 2:
-        return None
-    head, body = rows[0], rows[1:]
-    cols = {}
-    for j, name in enumerate(head):
-        vals = [r[j] if j < len(r) else "" for r in body]
-        try:
-            cols[name] = np.array([float(v) if v != "" else np.nan for v in vals])
-        except ValueError:
-            cols[name] = np.array(vals)
-    return cols
+from silo_dolfinx.output.reader import read_csv, read_summary
 
 
 class Report:
@@ -61,8 +39,7 @@ class Report:
         from silo_dolfinx.scene import load_scene
 
         self.scene = load_scene(self.folder / "scene.toml") if (self.folder / "scene.toml").is_file() else None
-        s = self.folder / "summary.json"
-        self.summary = json.loads(s.read_text()) if s.is_file() else {}
+        self.summary = read_summary(self.folder)
         self.missing: list[str] = []
         self.figures: list[tuple[str, str]] = []
         self.numbers: list[tuple[str, str]] = []

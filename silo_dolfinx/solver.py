@@ -40,10 +40,9 @@ import numpy as np
 from mpi4py import MPI
 
 from silo_dolfinx import kernels
-from silo_dolfinx._compat import geometry_dofmap
 from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.forms import AxisymmetricForms
-from silo_dolfinx.geometry.quality import CYCLE
+from silo_dolfinx.geometry.cells import CYCLE, tensor_nodes
 from silo_dolfinx.materials.base import Material
 from silo_dolfinx.state import Energy, NodalData, QuadratureData
 
@@ -132,8 +131,8 @@ class ExplicitSolver:
 
     def _number_nodes(self, mesh) -> None:
         """node <-> dof maps (Q1 geometry: one geometry node per vertex, same local order)."""
-        gdm = geometry_dofmap(mesh)
-        self.cell_nodes = np.ascontiguousarray(gdm[:, CYCLE].astype(np.int64))  # boundary cycle
+        gdm = tensor_nodes(mesh)
+        self.cell_nodes = np.ascontiguousarray(gdm[:, CYCLE])  # boundary cycle
         self.node_dof = np.empty(mesh.geometry.x.shape[0], np.int64)
         self.node_dof[gdm.ravel()] = self.V.dofmap.list.ravel()
         self.dof_node = np.empty(self.n_nodes, np.int64)

@@ -14,7 +14,7 @@ from conftest import SCENES
 from mpi4py import MPI
 
 from silo_dolfinx.geometry import hopper_half_angle
-from silo_dolfinx.report import read_csv
+from silo_dolfinx.output import read_csv
 from silo_dolfinx.scene import load_scene
 
 # ---------------------------------------------------------------------------- remap alone

@@ -42,3 +42,17 @@ def test_schema_is_markdown(capsys, comm):
     assert main(["schema"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("# Scene file reference") and "`friction_angle`" in out
+
+
+def test_results_reference_is_the_schema(capsys, comm):
+    """docs/results.md is generated from silo_dolfinx.output.schema; regenerate with
+    `silo schema --results > docs/results.md`. Every column the writers use is documented."""
+    from pathlib import Path
+
+    from silo_dolfinx.output import schema
+
+    assert main(["schema", "--results"]) == 0
+    out = capsys.readouterr().out
+    assert out == (Path(__file__).resolve().parents[1] / "docs" / "results.md").read_text()
+    for f in schema.FILES:
+        assert all(f"| `{c}` |" in out for c in f.names), f.pattern

@@ -1,7 +1,6 @@
 """Wall contact and wall pressures: the friction laws on a sliding block, Janssen in the
 flat-bottomed silo, hopper filling, the abrupt transition, Δt and rank independence."""
 
-import csv
 import math
 import glob
 
@@ -15,6 +14,7 @@ from silo_dolfinx.geometry import hopper_half_angle
 from silo_dolfinx.geometry.mesher import mesh_scene
 from silo_dolfinx.geometry.wall import Segment, Wall
 from silo_dolfinx.materials import Elastic
+from silo_dolfinx.output import read_csv
 from silo_dolfinx.scene import load_scene
 from silo_dolfinx.simulation import SiloModel, run, smooth_step
 from silo_dolfinx.solver import ExplicitSolver, Numerics
@@ -23,9 +23,7 @@ from conftest import SCENES
 
 
 def read_profile(path):
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return read_csv(path)  # the package's reader, typed by the schema
 
 
 # ------------------------------------------------------------------ the sliding block (Figs. 3-13/3-14)

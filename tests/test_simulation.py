@@ -1,12 +1,12 @@
 """`silo run` end to end: the results-folder contract, serial and under MPI."""
 
-import csv
 import json
 
 import numpy as np
 from conftest import scene_dict
 
 from silo_dolfinx.cli import main
+from silo_dolfinx.output import read_rows
 from silo_dolfinx.scene import load_scene
 from silo_dolfinx.simulation import run
 
@@ -16,9 +16,7 @@ DP = {"model": "drucker_prager", "density": 1000.0, "youngs_modulus": 5e5, "fric
 
 
 def read_csv(path):
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    return rows
+    return read_rows(path)  # the package's reader: the header is checked against the schema
 
 
 def small_scene(**sections):
@@ -86,3 +84,68 @@ def test_silo_run_command(shared_tmp, capsys, comm):
         text = capsys.readouterr().out
         assert "completed" in text and "energy balance error" in text
     assert json.loads(Path(out / "summary.json").read_text())["stages"][-1]["name"] == "store"
+
+
+# ------------------------------------------------------------------ what a scene switches off is not built
+ALL_ON = dict(material=DP | {"model": "non_coaxial", "noncoaxial_modulus": 5.6e4},
+              wall={"friction": "velocity_dependent", "mu_static": 0.4, "mu_kinetic": 0.3, "decay": 2.0},
+              loads={"top_surcharge": 1000.0}, fill={"method": "layers", "layers": 2, "duration": 0.2, "damping": 0.3},
+              store={"duration": 0.05}, discharge={"mode": "controlled", "velocity": 0.05, "ramp_time": 0.01,
+                                                  "duration": 0.02},
+              numerics={"bulk_viscosity": [0.06, 1.2]}, ale={"enabled": True, "frequency": 5, "tracer_rows": 2,
+                                                              "tracer_columns": 3},
+              output={"history_rate": 100.0, "field_interval": 0.1, "stations": [0.1, 0.3]})
+
+# effect -> the scene change that switches it off
+OFF = {
+    "surcharge": {"loads": {"top_surcharge": 0.0}},
+    "outlet_drive": {"discharge": ALL_ON["discharge"] | {"mode": "free"}},
+    "damping": {"fill": ALL_ON["fill"] | {"damping": 0.0}},
+    "bulk_viscosity": {"numerics": {"bulk_viscosity": [0.0, 0.0]}},
+    "ale": {"ale": ALL_ON["ale"] | {"enabled": False}},
+}
+
+
+def test_an_effect_that_is_off_is_not_built(comm):
+    """Each effect the all-on scene builds is absent — no object, no load, no constraint, no
+    state array — when the scene switches it off; the others stay."""
+    from silo_dolfinx.simulation import build_model
+
+    def scene(**changes):
+        return load_scene(scene_dict(HOPPER, **(ALL_ON | changes)))
+
+    on = build_model(scene(), comm)
+    everything = {"gravity", "surcharge", "wall", "gate", "outlet_drive", "damping", "bulk_viscosity", "ale"}
+    assert set(on.effects) == everything
+    assert on.damping_alpha > 0 and set(on.solver.q.now.state) == {"eqps"}
+    for name, change in OFF.items():
+        m = build_model(scene(**change), comm)
+        assert set(m.effects) == everything - {name}, name
+    m = build_model(scene(**OFF["surcharge"]), comm)
+    m.activate(np.arange(m.solver.n_cells_owned, dtype=np.int32), None, 0.0, 0.1, last=True)
+    assert [g.kind for g in m.solver.loads] == ["gravity"]  # no surcharge load either
+    assert build_model(scene(**OFF["damping"]), comm).damping_alpha == 0.0
+    # the law declares its state: an elastic solid allocates none, in either buffer
+    m = build_model(scene(material={"model": "elastic", "density": 1000.0, "youngs_modulus": 5e5}), comm)
+    assert m.solver.q.now.state == {} and m.solver.q.new.state == {}
+    # no discharge: neither its stage nor ALE nor the drive
+    m = build_model(scene(discharge={"mode": "none"}), comm)
+    assert [st.name for st in m.stages] == ["fill", "store"] and not {"ale", "outlet_drive"} & set(m.effects)
+    # a smooth wall: the contact never evaluates friction
+    assert build_model(scene(wall={"friction": "none"}), comm).contact._frictionless
+
+
+def test_switched_off_outputs_and_ale_are_absent_from_a_run(shared_tmp, comm):
+    """A run without ALE, field output and wall stations: no hook ran, nothing of them was
+    written; with ALE but no tracers: no tracers.csv."""
+    off = ALL_ON | OFF["ale"] | {"output": {"history_rate": 100.0, "field_interval": 0.0, "stations": []}}
+    s = run(load_scene(scene_dict(HOPPER, **off)), shared_tmp / "off", comm, progress_every=1e9)
+    comm.barrier()
+    assert s["status"] == "completed" and "ale" not in s["effects"] and "ale" not in s["stages"][-1]
+    assert not (shared_tmp / "off" / "fields").exists() and not (shared_tmp / "off" / "wall_history.csv").exists()
+    assert (shared_tmp / "off" / "energy.csv").is_file() and (shared_tmp / "off" / "outlet.csv").is_file()
+    no_tracers = ALL_ON | {"ale": ALL_ON["ale"] | {"tracer_rows": 0}}
+    s = run(load_scene(scene_dict(HOPPER, **no_tracers)), shared_tmp / "notr", comm, progress_every=1e9)
+    comm.barrier()
+    assert s["stages"][-1]["ale"]["remaps"] > 0 and "tracers" not in s["stages"][-1]
+    assert not (shared_tmp / "notr" / "tracers.csv").exists()

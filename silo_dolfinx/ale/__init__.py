@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from mpi4py import MPI
 
-from silo_dolfinx.ale.remap import RemapReport, Remapper, cell_state, cell_volume_density, qp_volumes, redistribute
+from silo_dolfinx.ale.remap import RemapReport, Remapper, cell_state, cell_volume_density, redistribute
+from silo_dolfinx.geometry.cells import qp_volumes, tensor_nodes
 from silo_dolfinx.ale.smoothing import Smoother
 from silo_dolfinx.ale.tracers import Tracers
 
@@ -46,25 +47,25 @@ class ALEStats:
 
 
 class ALE:
-    """Smoothing + remap of a :class:`~silo_dolfinx.simulation.SiloModel` during discharge."""
+    """Smoothing + remap of a :class:`~silo_dolfinx.simulation.SiloModel` during discharge; a
+    post-step hook of the time loop (:meth:`before_step`, :meth:`after_step`)."""
 
-    def __init__(self, model, *, frequency: int = 10, sweeps: int = 1, laplacian_weight: float = 0.5,
-                 mid_area_weight: float = 0.5, remap_order: int = 2, predictor: str = "previous",
-                 objective: str = "graded", tracers: tuple[int, int] = (0, 0)):
-        from silo_dolfinx._compat import geometry_dofmap
-
+    def __init__(self, model, config):
+        """``config``: the scene's [ale] section (frequency, sweeps, laplacian_weight,
+        mid_area_weight, remap_order, predictor, smoothing_objective, tracer_rows/columns)."""
         s = model.solver
         if s.active_cells.size != s.n_cells_owned:
             raise RuntimeError("ALE needs every cell active (it starts with the discharge)")
         self.model = model
         self.solver = s
         self.mesh = model.sm.mesh
-        self.frequency = frequency
-        self.smoother = Smoother(model.sm, model.contact_wall_open, laplacian_weight=laplacian_weight,
-                                 mid_area_weight=mid_area_weight, sweeps=sweeps, predictor=predictor,
-                                 objective=objective)
-        self.remapper = Remapper(self.mesh, model.sm.facets("outlet"), remap_order)
-        self.cn_tensor = np.ascontiguousarray(geometry_dofmap(self.mesh)[: s.n_cells_owned].astype(np.int64))
+        a = config
+        self.frequency = a.frequency
+        self.smoother = Smoother(model.sm, model.contact_wall_open, laplacian_weight=a.laplacian_weight,
+                                 mid_area_weight=a.mid_area_weight, sweeps=a.sweeps, predictor=a.predictor,
+                                 objective=a.smoothing_objective)
+        self.remapper = Remapper(self.mesh, model.sm.facets("outlet"), a.remap_order)
+        self.cn_tensor = tensor_nodes(self.mesh, s.n_cells_owned)
         m = s.material
         self.fields = [("sig", 4)] + [(k, c) for k, c in m.state_fields.items()]
         self.k = sum(c for _, c in self.fields)
@@ -85,7 +86,7 @@ class ALE:
         self._points = np.ascontiguousarray(s.forms.points, dtype=np.float64)
         self._weights = np.ascontiguousarray(s.forms.weights, dtype=np.float64)
         self.stats = ALEStats()
-        self.tracers = Tracers(self, *tracers) if tracers[0] * tracers[1] > 0 else None
+        self.tracers = Tracers(self, a.tracer_rows, a.tracer_columns) if a.tracer_rows * a.tracer_columns > 0 else None
         self._steps0 = s.steps
 
     def due(self) -> bool:
@@ -94,6 +95,18 @@ class ALE:
     def due_next(self) -> bool:
         """Whether the next step ends with a remap (its internal force can then be skipped)."""
         return (self.solver.steps + 1 - self._steps0) % self.frequency == 0
+
+    # ------------------------------------------------------------------ the post-step hook
+    def before_step(self) -> None:
+        """A step that ends with a remap skips its internal force: the remap's rebuild
+        assembles it on the new mesh anyway (the solver's ``defer_force``; if no remap
+        follows after all, the solver assembles it before it is used)."""
+        self.solver.defer_force = self.due_next()
+
+    def after_step(self) -> None:
+        """Every ``frequency`` steps: smooth + remap."""
+        if self.due():
+            self.apply()
 
     # ------------------------------------------------------------------ the split step
     def apply(self) -> RemapReport:

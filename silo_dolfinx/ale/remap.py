@@ -50,9 +50,8 @@ import numba
 import numpy as np
 from mpi4py import MPI
 
-from silo_dolfinx._compat import geometry_dofmap
 from silo_dolfinx._mpi import reduce_scalar
-from silo_dolfinx.geometry.quality import CYCLE
+from silo_dolfinx.geometry.cells import CYCLE, orientation, tensor_nodes
 from silo_dolfinx.kernels import FAST
 
 TWO_PI = 2.0 * math.pi
@@ -95,11 +94,10 @@ class Remapper:
             raise ValueError("the ALE remap needs ghost cells: create the mesh with "
                              "dolfinx.mesh.GhostMode.shared_facet (the silo mesher does)")
         self.cell_map = cmap
-        gdm = geometry_dofmap(mesh)
-        self.cn_tensor = np.ascontiguousarray(gdm[: self.n_all].astype(np.int64))
+        self.cn_tensor = tensor_nodes(mesh, self.n_all)
         self.cn = np.ascontiguousarray(self.cn_tensor[:, CYCLE])
         x = mesh.geometry.x
-        self.orient = _orientation(x, self.cn)
+        self.orient = orientation(x, self.cn)
 
         # facets touching an owned cell, oriented by global node index
         top.create_connectivity(tdim - 1, tdim)
@@ -313,18 +311,6 @@ def _moments(r0, z0, r1, z1, r2, z2, r3, z3):
     c0, c1, c2 = _edge_moments(r2, z2, r3, z3)
     d0, d1, d2 = _edge_moments(r3, z3, r0, z0)
     return (a0 + b0 + c0 + d0) / 6.0, (a1 + b1 + c1 + d1) / 12.0, (a2 + b2 + c2 + d2) / 24.0
-
-
-@numba.njit(cache=True)
-def _orientation(x, cn):
-    out = np.empty(cn.shape[0])
-    for c in range(cn.shape[0]):
-        a = 0.0
-        for k in range(4):
-            p, q = cn[c, k], cn[c, (k + 1) % 4]
-            a += x[p, 0] * x[q, 1] - x[q, 0] * x[p, 1]
-        out[c] = 1.0 if a > 0.0 else -1.0
-    return out
 
 
 @numba.njit(cache=True)
@@ -850,19 +836,3 @@ def cell_state(values, nq, dV, vol, j0, means, lo, hi):
             hi[c, j0 + j] = b
 
 
-@numba.njit(cache=True, fastmath=FAST)
-def qp_volumes(x, cn_tensor, points, weights, n_cells, out):
-    """Quadrature volumes 2π r |det J| w_q of the first ``n_cells`` Q1 cells at positions
-    ``x`` (the solver's dV layout: cell-major, basix point order)."""
-    nq = points.shape[0]
-    for c in range(n_cells):
-        a, b, cc, d = cn_tensor[c, 0], cn_tensor[c, 1], cn_tensor[c, 2], cn_tensor[c, 3]
-        for q in range(nq):
-            xi, eta = points[q, 0], points[q, 1]
-            r = ((1.0 - xi) * (1.0 - eta) * x[a, 0] + xi * (1.0 - eta) * x[b, 0] + (1.0 - xi) * eta * x[cc, 0]
-                 + xi * eta * x[d, 0])
-            dr_dxi = (1.0 - eta) * (x[b, 0] - x[a, 0]) + eta * (x[d, 0] - x[cc, 0])
-            dz_dxi = (1.0 - eta) * (x[b, 1] - x[a, 1]) + eta * (x[d, 1] - x[cc, 1])
-            dr_deta = (1.0 - xi) * (x[cc, 0] - x[a, 0]) + xi * (x[d, 0] - x[b, 0])
-            dz_deta = (1.0 - xi) * (x[cc, 1] - x[a, 1]) + xi * (x[d, 1] - x[b, 1])
-            out[c * nq + q] = TWO_PI * r * abs(dr_dxi * dz_deta - dr_deta * dz_dxi) * weights[q]

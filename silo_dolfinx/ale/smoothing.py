@@ -48,10 +48,8 @@ import numba
 import numpy as np
 from mpi4py import MPI
 
-from silo_dolfinx._compat import geometry_dofmap
 from silo_dolfinx._mpi import reduce_scalar
-from silo_dolfinx.ale.remap import _orientation
-from silo_dolfinx.geometry.quality import CYCLE, worst_cells
+from silo_dolfinx.geometry.cells import cycle_nodes, orientation, worst_cells
 from silo_dolfinx.geometry.wall import arclength_of, slide
 
 OUTLET, TOP_CORNER, WALL, AXIS, TOP, INTERIOR = range(6)
@@ -79,8 +77,8 @@ class Smoother:
         self.nn = nmap.size_local
         self.n_nodes = nmap.size_local + nmap.num_ghosts
         self.n_cells = mesh.topology.index_map(2).size_local
-        self.cn = np.ascontiguousarray(geometry_dofmap(mesh)[: self.n_cells][:, CYCLE].astype(np.int64))
-        self.orient = _orientation(x, self.cn)
+        self.cn = cycle_nodes(mesh, self.n_cells)
+        self.orient = orientation(x, self.cn)
         self._acc = la.vector(nmap, 6)
         self._pos = la.vector(nmap, 2)
 
@@ -195,9 +193,9 @@ class Smoother:
         x = (self.x_prev if self.predictor == "previous" else xL).copy()
         pts = self._top_polyline(xL)
         s_top, z_top = self._top_corners(pts)
-        _place_boundary(x, xL, self.X, pts, s_top, z_top, self.outlet, self.wall_corner, self.axis_corner,
-                        self.wall_nodes, self.S0, self.anchors, self.S0_top, self.axis_nodes, self.Z0, self.Z0_top,
-                        self.top_nodes, self.top_fraction, *self.wall.arrays)
+        _place_boundary(x, xL, (pts, s_top, z_top), (self.X, self.outlet, self.wall_corner, self.axis_corner),
+                        (self.wall_nodes, self.S0, self.anchors, self.S0_top), (self.axis_nodes, self.Z0, self.Z0_top),
+                        (self.top_nodes, self.top_fraction), self.wall.arrays)
         return x
 
     def smooth(self, xL: np.ndarray) -> np.ndarray:
@@ -229,12 +227,22 @@ class Smoother:
 
 
 @numba.njit(cache=True)
-def _place_boundary(x, xL, X, pts, s_top, z_top, outlet, corners_wall, corners_axis, wall_nodes, S0, anchors, S0_top,
-                    axis_nodes, Z0, Z0_top, top_nodes, top_fraction, kind, geo, s0, n_end, length):
+def _place_boundary(x, xL, top, fixed, wall_rule, axis_rule, top_rule, wall_geometry):
     """The boundary rules of the module docstring, in place on ``x``: outlet nodes back to
     their reference positions ``X``, top corners Lagrangian (``xL``), wall / axis / top nodes
     spread from the current top polyline ``pts`` (axis corner first, wall corner last), whose
-    wall corner is at arclength ``s_top`` and axis corner at height ``z_top``."""
+    wall corner is at arclength ``s_top`` and axis corner at height ``z_top``.
+
+    top = (pts, s_top, z_top); fixed = (X, outlet, wall corner, axis corner nodes);
+    wall_rule = (wall nodes, their initial arclengths S0, anchors, S0 of the top corner);
+    axis_rule = (axis nodes, initial heights Z0, Z0 of the top); top_rule = (top nodes,
+    their arclength fractions); wall_geometry = :attr:`Wall.arrays`."""
+    pts, s_top, z_top = top
+    X, outlet, corners_wall, corners_axis = fixed
+    wall_nodes, S0, anchors, S0_top = wall_rule
+    axis_nodes, Z0, Z0_top = axis_rule
+    top_nodes, top_fraction = top_rule
+    kind, geo, s0, n_end, length = wall_geometry
     for i in outlet:
         x[i, 0], x[i, 1] = X[i, 0], X[i, 1]
     for i in corners_wall:

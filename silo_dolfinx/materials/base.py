@@ -13,13 +13,15 @@ p = −tr σ/3 is positive in compression, as in the thesis.
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 
 import numba
 import numpy as np
 
+from silo_dolfinx.invariants import invariants, mean_j2
 from silo_dolfinx.kernels import FAST
+
+__all__ = ["Material", "elastic_trial", "invariants"]  # invariants: silo_dolfinx.invariants
 
 
 class Material(ABC):
@@ -70,8 +72,7 @@ class Material(ABC):
 
 @numba.njit(cache=True, inline="always")
 def _density(s, K, G):
-    m = (s[0] + s[1] + s[2]) / 3.0
-    j2 = 0.5 * ((s[0] - m) ** 2 + (s[1] - m) ** 2 + (s[2] - m) ** 2) + s[3] ** 2
+    m, j2 = mean_j2(s)
     return 0.5 * m * m / K + 0.5 * j2 / G
 
 
@@ -118,12 +119,3 @@ def elastic_trial(sig, de, K, G, out):
     out[1] = sig[1] + lam * tr + 2.0 * G * de[1]
     out[2] = sig[2] + lam * tr + 2.0 * G * de[2]
     out[3] = sig[3] + G * de[3]
-
-
-@numba.njit(cache=True)
-def invariants(s):
-    """(p, q, deviator) with p = −tr σ/3 (compression +) and q = √(3 J2)."""
-    m = (s[0] + s[1] + s[2]) / 3.0
-    d0, d1, d2, d3 = s[0] - m, s[1] - m, s[2] - m, s[3]
-    j2 = 0.5 * (d0 * d0 + d1 * d1 + d2 * d2) + d3 * d3
-    return -m, math.sqrt(3.0 * j2), d0, d1, d2, d3

@@ -35,7 +35,8 @@ import math
 import numba
 import numpy as np
 
-from silo_dolfinx.materials.base import Material, invariants
+from silo_dolfinx.invariants import deviator_q_p, invariants
+from silo_dolfinx.materials.base import Material
 
 
 class DruckerPrager(Material):
@@ -77,10 +78,8 @@ class DruckerPrager(Material):
 @numba.njit(cache=True, inline="always")
 def _trial_yield(t0, t1, t2, t3, tanb, d):
     """Deviator (normal components), q, p and F of a stress given by its 4 components."""
-    m = (t0 + t1 + t2) * (1.0 / 3.0)
-    d0, d1, d2 = t0 - m, t1 - m, t2 - m
-    q = math.sqrt(1.5 * (d0 * d0 + d1 * d1 + d2 * d2) + 3.0 * t3 * t3)
-    return d0, d1, d2, q, -m, q - (-m) * tanb - d
+    d0, d1, d2, q, p = deviator_q_p(t0, t1, t2, t3)
+    return d0, d1, d2, q, p, q - p * tanb - d
 
 
 @numba.njit(cache=True, inline="always")

@@ -370,11 +370,13 @@ OUTPUT = Section(
     "What is written to the results folder.",
     keys=(
         Key("stations", "floats", DERIVED, "m", "Wall stations for time histories, as heights "
-            "(or arclengths, see station_coordinate). Default: 10 evenly spaced on the fill."),
+            "(or arclengths, see station_coordinate). Default: 10 evenly spaced on the fill; [] = no "
+            "wall_history.csv (the wall stream is not built)."),
         C("station_coordinate", ("z", "s"), "z", "z: stations are heights; s: wall arclengths "
           "from the outlet edge."),
         F("history_rate", 200.0, "Hz", "Sampling rate of time histories.", **POS),
-        F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX).", **POS),
+        F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX, and the snapshots "
+          "`silo report` draws); 0 = no field output at all (the field stream is not built).", **NONNEG),
     ),
 )
 

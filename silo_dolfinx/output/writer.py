@@ -6,13 +6,15 @@
       energy.csv              t, stage, energy terms, balance error
       wall_history.csv        t, station, s, r, z, p_n, p_s, slip_velocity (at the history rate)
       wall_profile_<stage>.csv  s, r, z, p_n, p_s, slip_velocity, in_contact (end of each stage)
-      outlet.csv              t, mass_flow_rate, discharged_mass, mean_outlet_velocity (discharge)
+      outlet.csv              t, discharged_mass, mass_flow_rate, mean_outlet_velocity, ... (discharge)
+      mesh_quality.csv        t, top_drop, min_scaled_jacobian, max_aspect_ratio (discharge)
+      tracers.csv             id, row, r0, z0, r, z, discharged_at (discharge with tracers)
       fields/nodes.bp, fields/cells.bp   VTX (ParaView): velocity, displacement; stress, p, q, q/p, ...
       mesh.png, *.png         pictures
 
 Rank 0 writes the CSV and JSON files; every row is flushed when written and summary.json is
 replaced atomically, so a crash leaves a readable partial result. Pressures are in Pa,
-heights in m, times in s, energies in J.
+heights in m, times in s, energies in J. The columns of every CSV are in :mod:`.schema`.
 """
 
 from __future__ import annotations
@@ -94,6 +96,14 @@ class Results:
         if name not in self._series:
             self._series[name] = CsvSeries(self.folder / name, columns, self.root)
         return self._series[name]
+
+    def table(self, schema, **parts) -> CsvSeries:
+        """The CSV series of a results file by its schema (:mod:`.schema`)."""
+        return self.series(schema.name(**parts), schema.names)
+
+    def write_table(self, schema, rows, **parts) -> None:
+        """A whole small CSV at once, by its schema (a wall profile, the tracers)."""
+        self.write_rows(schema.name(**parts), schema.names, rows)
 
     def write_rows(self, name: str, columns: list[str], rows) -> None:
         """A whole small CSV at once (e.g. a wall profile)."""

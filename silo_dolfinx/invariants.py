@@ -1,0 +1,52 @@
+"""Stress invariants — in one place (tension positive; p compression positive).
+
+    p = −tr σ / 3,   s = σ − (tr σ / 3) I,   J2 = ½ s:s (with the rz shear counted twice),
+    q = √(3 J2)
+
+for the axisymmetric 4-vectors (rr, zz, θθ, rz). Point versions are numba functions that
+inline into the kernels (the material laws, the energy); :func:`p_q` is the vectorised one
+for output and analysis.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, inline="always")
+def mean_j2(s):
+    """(tr σ/3, J2) of one stress."""
+    m = (s[0] + s[1] + s[2]) / 3.0
+    j2 = 0.5 * ((s[0] - m) ** 2 + (s[1] - m) ** 2 + (s[2] - m) ** 2) + s[3] ** 2
+    return m, j2
+
+
+@numba.njit(cache=True)
+def invariants(s):
+    """(p, q, deviator) of one stress: p = −tr σ/3 (compression +), q = √(3 J2)."""
+    m = (s[0] + s[1] + s[2]) / 3.0
+    d0, d1, d2, d3 = s[0] - m, s[1] - m, s[2] - m, s[3]
+    j2 = 0.5 * (d0 * d0 + d1 * d1 + d2 * d2) + d3 * d3
+    return -m, math.sqrt(3.0 * j2), d0, d1, d2, d3
+
+
+@numba.njit(cache=True, inline="always")
+def deviator_q_p(t0, t1, t2, t3):
+    """Deviator (normal components), q and p of a stress given by its four components (the
+    return map's hot loop works in scalars)."""
+    m = (t0 + t1 + t2) * (1.0 / 3.0)
+    d0, d1, d2 = t0 - m, t1 - m, t2 - m
+    q = math.sqrt(1.5 * (d0 * d0 + d1 * d1 + d2 * d2) + 3.0 * t3 * t3)
+    return d0, d1, d2, q, -m
+
+
+def p_q(sig) -> tuple[np.ndarray, np.ndarray]:
+    """(p, q) of (n, 4) stresses."""
+    s = np.atleast_2d(np.asarray(sig, float))
+    m = s[:, :3].mean(axis=1)
+    d = s[:, :3] - m[:, None]
+    j2 = 0.5 * (d**2).sum(axis=1) + s[:, 3] ** 2
+    return -m, np.sqrt(3.0 * j2)

@@ -1,0 +1,122 @@
+"""One schema per results file: its columns, their units and meaning.
+
+The writers (:mod:`silo_dolfinx.output.streams`), the reader (:mod:`silo_dolfinx.output.reader`),
+``silo report`` and the tests all take the columns from here, so a column is named, typed
+and documented once. ``docs/results.md`` is :func:`markdown` verbatim (``silo schema --results``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Column:
+    name: str
+    unit: str
+    doc: str
+    text: bool = False  # read as strings (the others as floats, empty cells NaN)
+
+
+@dataclass(frozen=True)
+class CsvFile:
+    pattern: str  # file name; "<stage>" stands for a stage name
+    doc: str
+    columns: tuple[Column, ...]
+
+    @property
+    def names(self) -> list[str]:
+        return [c.name for c in self.columns]
+
+    def name(self, **parts) -> str:
+        out = self.pattern
+        for k, v in parts.items():
+            out = out.replace(f"<{k}>", str(v))
+        return out
+
+
+C = Column
+T = C("t", "s", "simulated time")
+
+ENERGY = CsvFile("energy.csv", "The energy ledger (J, full 360°), at the history rate.", (
+    T, C("stage", "-", "fill | store | discharge", text=True),
+    C("kinetic", "J", "½ Σ M |v|² at the half step"),
+    C("elastic", "J", "stored elastic energy ½ σ:C⁻¹:σ"),
+    C("plastic", "J", "plastic dissipation so far"),
+    C("viscous", "J", "bulk-viscous dissipation so far"),
+    C("damping", "J", "dissipation of the fill damping so far"),
+    C("remap", "J", "kinetic + elastic energy lost by ALE remaps (upwinding)"),
+    C("outflow", "J", "kinetic + elastic energy carried out through the outlet"),
+    C("initial", "J", "energy of a prescribed initial (K0) stress field"),
+    C("gravity_work", "J", "work of gravity"),
+    C("external_work", "J", "work of gravity, surcharge, prescribed velocities and contact"),
+    C("contact_work", "J", "work of the wall and gate contact forces (and prescribed velocities)"),
+    C("balance", "J", "kinetic + elastic + dissipated + remap + outflow − external − initial"),
+    C("relative_error", "-", "|balance| over the largest energy scale so far"),
+))
+
+WALL_HISTORY = CsvFile("wall_history.csv", "Wall stations at the history rate (interpolated along the wall).", (
+    T, C("station", "-", "station index (output.stations order)"),
+    C("s", "m", "arclength along the wall from the outlet edge"),
+    C("r", "m", "radius of the station now"), C("z", "m", "height of the station now"),
+    C("p_n", "Pa", "normal wall pressure"), C("p_s", "Pa", "wall shear stress (signed along the tangent)"),
+    C("slip_velocity", "m/s", "slip velocity along the wall tangent (negative: down the wall)"),
+))
+
+WALL_PROFILE = CsvFile("wall_profile_<stage>.csv", "Every wall node at the end of a stage, sorted by s.", (
+    C("s", "m", "arclength from the outlet edge"), C("r", "m", "radius"), C("z", "m", "height"),
+    C("p_n", "Pa", "normal wall pressure"), C("p_s", "Pa", "wall shear stress"),
+    C("slip_velocity", "m/s", "slip velocity along the tangent"),
+    C("in_contact", "-", "1 if the node touches the wall, else 0"),
+))
+
+OUTLET = CsvFile("outlet.csv", "The outlet during the discharge, at the history rate.", (
+    T, C("discharged_mass", "kg", "mass that left (counted by the remap as it crosses the Eulerian outlet; "
+         "Lagrangian: the mass of cells below the outlet plane)"),
+    C("mass_in_silo", "kg", "mass above the outlet plane"),
+    C("mass_flow_rate", "kg/s", "the mass actually leaving: discharged mass over the last 0.05 s"),
+    C("mean_outlet_velocity", "m/s", "downward, area-weighted over the outlet"),
+    C("mass_balance_error", "-", "(mass at opening − inside − discharged) / mass at opening"),
+    C("nominal_mass_flow_rate", "kg/s", "the thesis' definition ρ0 · A · v (above the real one where the "
+      "outlet material is looser than ρ0)"),
+    C("dt", "s", "the current stable time step"),
+))
+
+MESH_QUALITY = CsvFile("mesh_quality.csv", "Mesh quality during the discharge (the Fig. 3-18 quantities).", (
+    T, C("top_drop", "m", "drop of the free surface on the axis"),
+    C("min_scaled_jacobian", "-", "smallest scaled Jacobian of any cell"),
+    C("max_aspect_ratio", "-", "largest aspect ratio of any cell"),
+))
+
+TRACERS = CsvFile("tracers.csv", "One row per tracer at the end of the discharge.", (
+    C("id", "-", "tracer id"), C("row", "-", "seeding row (0 = lowest)"),
+    C("r0", "m", "seed radius"), C("z0", "m", "seed height"),
+    C("r", "m", "radius now (empty once discharged)"), C("z", "m", "height now (empty once discharged)"),
+    C("discharged_at", "s", "when it left (empty while inside)"),
+))
+
+FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, OUTLET, MESH_QUALITY, TRACERS)
+
+
+def for_file(filename: str) -> CsvFile | None:
+    """The schema of a results file by its name (None for a file without one)."""
+    for f in FILES:
+        head, _, tail = f.pattern.partition("<")
+        if filename == f.pattern or ("<" in f.pattern and filename.startswith(head)
+                                     and filename.endswith(tail.partition(">")[2])):
+            return f
+    return None
+
+
+def markdown() -> str:
+    """The results-file reference as Markdown."""
+    out = ["# Results files", "", "<!-- generated by `silo schema --results > docs/results.md`; do not edit -->", "",
+           "Each run writes one folder: `scene.toml` (the resolved scene), `summary.json` (status, key numbers, "
+           "stages), the CSV files below (rank 0, one flushed row at a time, so a crash leaves a readable partial "
+           "result), `fields/` (VTX for ParaView and `snapshot_NNNN.npz` for `silo report`), PNG figures and "
+           "`report.md`. Read any CSV with `silo_dolfinx.output.read_csv(path)`.", ""]
+    for f in FILES:
+        out += [f"## `{f.pattern}`", "", f.doc, "", "| column | unit | meaning |", "|---|---|---|"]
+        out += [f"| `{c.name}` | {c.unit} | {c.doc.replace('|', chr(92) + '|')} |" for c in f.columns]
+        out.append("")
+    return "\n".join(out)

@@ -1,0 +1,355 @@
+"""The output streams of a running model, each built only when the scene asks for it.
+
+=================  ==============================================  ==========================
+stream             when it exists                                  writes
+=================  ==============================================  ==========================
+energy history     always                                          energy.csv
+wall history       output.stations not empty                       wall_history.csv
+wall profiles      always (end of each stage)                      wall_profile_<stage>.csv
+fields             output.field_interval > 0                       fields/ (VTX, snapshots)
+discharge monitor  in a discharge                                  outlet.csv, mesh_quality.csv,
+                                                                   tracers.csv (with tracers)
+=================  ==============================================  ==========================
+
+:class:`Outputs` samples the history streams at ``output.history_rate`` and the fields every
+``output.field_interval`` of simulated time, and all of them at the end of each stage. Every
+sample first checks that velocity and stress are finite: nothing non-finite is ever written.
+Column names come from :mod:`silo_dolfinx.output.schema`.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from silo_dolfinx.geometry.mesher import FACET_TAGS
+from silo_dolfinx.output import schema
+from silo_dolfinx.output.writer import Results
+
+
+class Outputs:
+    """The scheduled output of a model into a :class:`Results` folder."""
+
+    def __init__(self, model, results: Results):
+        self.model, self.results = model, results
+        out = model.scene.output
+        self.dt_history = 1.0 / out.history_rate
+        self.next_history = 0.0
+        self.energy = EnergyHistory(model, results)
+        self.history: list = [self.energy]
+        if len(out.stations):
+            self.history.append(WallHistory(model, results))
+        self.fields = FieldOutput(model, results, out.field_interval) if out.field_interval > 0 else None
+        self.monitor = None  # the discharge's outlet and mesh-quality monitor
+        self._last_t = None
+
+    @property
+    def max_abs_balance(self) -> float:
+        return self.energy.max_abs_balance
+
+    def maybe(self, stage: str) -> None:
+        """Sample what is due at the current time."""
+        t = self.model.solver.t
+        if t + 1e-12 >= self.next_history:
+            self.sample(stage)
+            while self.next_history <= t + 1e-12:
+                self.next_history += self.dt_history
+        if self.fields is not None:
+            self.fields.maybe(t)
+
+    def sample(self, stage: str) -> None:
+        s = self.model.solver
+        if s.t == self._last_t:
+            return  # a stage end that coincides with a periodic sample
+        self._last_t = s.t
+        s.check_finite()  # nothing non-finite is ever written
+        for stream in self.history:
+            stream.sample(stage)
+
+    def stage_end(self, stage: str) -> None:
+        """History sample, wall profile and fields at the end of a stage."""
+        self.sample(stage)
+        w = self.model.wall_state()
+        if w is not None:
+            f = schema.WALL_PROFILE
+            self.results.write_table(f, np.column_stack([w[k] for k in f.names]).tolist(), stage=stage)
+        if self.fields is not None:
+            self.fields.at_stage_end(self.model.solver.t)
+
+    def begin_discharge(self, model) -> None:
+        self.monitor = DischargeMonitor(model, self.results, model.ale)
+        self.history.append(self.monitor)
+
+    def discharge_summary(self) -> dict:
+        return self.monitor.summary() if self.monitor is not None else {}
+
+    def close(self) -> None:
+        if self.fields is not None:
+            self.fields.close()
+
+
+class EnergyHistory:
+    """energy.csv: the ledger summed over ranks, its balance and relative error."""
+
+    def __init__(self, model, results: Results):
+        self.solver = model.solver
+        self.csv = results.table(schema.ENERGY)
+        self.max_abs_balance = 0.0  # largest |balance| seen, J
+
+    def sample(self, stage: str) -> None:
+        s = self.solver
+        e = s.global_energy()
+        self.max_abs_balance = max(self.max_abs_balance, abs(e.balance))
+        self.csv.write([s.t, stage, e.kinetic, e.elastic, e.plastic, e.viscous, e.damping, e.remap, e.outflow,
+                        e.initial, e.gravity, e.external, e.contact, e.balance, e.relative_error(s.energy_scale)])
+
+
+class WallHistory:
+    """wall_history.csv: pressures and slip at the wall stations (interpolated along s)."""
+
+    def __init__(self, model, results: Results):
+        self.model = model
+        out = model.scene.output
+        st = np.asarray(out.stations, float)
+        self.station_s = model.outline.wall.s_at_height(st) if out.station_coordinate == "z" else st
+        self.csv = results.table(schema.WALL_HISTORY)
+
+    def sample(self, stage: str) -> None:
+        w = self.model.wall_state()
+        if w is None or not w["s"].size:
+            return
+        t = self.model.solver.t
+        rows = [[t, k, float(ss), *(float(np.interp(ss, w["s"], w[name])) for name in schema.WALL_HISTORY.names[3:])]
+                for k, ss in enumerate(self.station_s)]
+        self.csv.write(*rows)
+
+
+class FieldOutput:
+    """VTX fields every ``interval`` s of simulated time and at each stage end (the writer
+    itself is built at the first output)."""
+
+    def __init__(self, model, results: Results, interval: float):
+        self.model, self.folder, self.interval = model, results.path("fields"), interval
+        self.next = 0.0
+        self.writer = None
+        self._last = None
+
+    def maybe(self, t: float) -> None:
+        if t + 1e-12 >= self.next:
+            self.write(t)
+            while self.next <= t + 1e-12:
+                self.next += self.interval
+
+    def at_stage_end(self, t: float) -> None:
+        if self._last != t:
+            self.write(t)
+
+    def write(self, t: float) -> None:
+        self.writer = self.writer or FieldWriter(self.model, self.folder)
+        self.writer.write(t)
+        self._last = t
+
+    def close(self) -> None:
+        if self.writer is not None:
+            self.writer.close()
+
+
+class FieldWriter:
+    """VTX output for ParaView: nodal velocity and displacement; cell means of the stress, its
+    invariants, the density and every scalar state variable the material declares."""
+
+    CELL_FIELDS = ("stress_rr", "stress_zz", "stress_tt", "stress_rz", "p", "q", "q_over_p", "density")
+
+    def __init__(self, model, folder: Path):
+        from dolfinx import fem, io
+
+        self.model = model
+        s = model.solver
+        mesh = model.sm.mesh
+        if mesh.comm.rank == 0:
+            folder.mkdir(parents=True, exist_ok=True)
+        mesh.comm.barrier()
+        self.disp = fem.Function(s.V, name="displacement")
+        W = fem.functionspace(mesh, ("DG", 0))
+        self.state_fields = [k for k, c in s.material.state_fields.items() if c == 1]
+        self.cell = {n: fem.Function(W, name=n) for n in list(self.CELL_FIELDS) + self.state_fields}
+        self.w_nodes = io.VTXWriter(mesh.comm, folder / "nodes.bp", [s.forms.velocity, self.disp], engine="BP4")
+        self.w_cells = io.VTXWriter(mesh.comm, folder / "cells.bp", list(self.cell.values()), engine="BP4")
+        self.folder = folder
+        self.count = 0
+
+    def write(self, t: float) -> None:
+        from silo_dolfinx import kernels
+        from silo_dolfinx.invariants import p_q
+
+        s = self.model.solver
+        self.disp.x.array[:] = s.displacement().ravel()
+        cells = s.active_cells
+        sig = s.sig
+        p, q = p_q(sig)
+        values = {"stress_rr": sig[:, 0], "stress_zz": sig[:, 1], "stress_tt": sig[:, 2], "stress_rz": sig[:, 3],
+                  "p": p, "q": q, "q_over_p": np.where(p > 1e-9, q / np.maximum(p, 1e-9), 0.0), "density": s.rho}
+        values.update({k: s.state[k] for k in self.state_fields})
+        avg = np.zeros(cells.size)
+        snapshot = {}
+        for name, f in self.cell.items():
+            kernels.cell_average(np.ascontiguousarray(values[name]), s.dV, s.nq, avg)
+            f.x.array[:] = 0.0
+            f.x.array[cells] = avg
+            f.x.scatter_forward()
+            snapshot[name] = avg.copy()
+        self.w_nodes.write(t)
+        self.w_cells.write(t)
+        self._snapshot(t, snapshot)
+
+    def _snapshot(self, t: float, cell_values: dict) -> None:
+        """fields/snapshot_NNNN.npz on rank 0: active cells' corners and cell means, owned
+        nodes' positions and velocities (for `silo report`: renders, flow-channel boundary)."""
+        s = self.model.solver
+        comm = self.model.sm.comm
+        x = self.model.sm.mesh.geometry.x
+        corners = x[s.active_cell_nodes][:, :, :2]
+        owned_nodes = np.nonzero(s.node_dof < s.n_owned)[0]
+        parts = comm.gather((corners, cell_values, x[owned_nodes, :2], s.v[s.node_dof[owned_nodes]]), root=0)
+        ale = self.model.ale
+        tracers = ale.tracers.gather() if ale is not None and ale.tracers is not None else None
+        if parts is None:
+            return
+        data = {"t": t, "corners": np.concatenate([p[0] for p in parts]),
+                "node_xy": np.concatenate([p[2] for p in parts]), "node_velocity": np.concatenate([p[3] for p in parts])}
+        for name in cell_values:
+            data[f"cell_{name}"] = np.concatenate([p[1][name] for p in parts])
+        if tracers is not None:
+            data.update({f"tracer_{k}": v for k, v in tracers.items()})
+        np.savez_compressed(self.folder / f"snapshot_{self.count:04d}.npz", **data)
+        self.count += 1
+
+    def close(self) -> None:
+        self.w_nodes.close()
+        self.w_cells.close()
+
+
+class DischargeMonitor:
+    """Outlet flow and mesh quality during the discharge: outlet.csv and mesh_quality.csv
+    (columns in :mod:`silo_dolfinx.output.schema`); tracers.csv at the end if ALE has tracers."""
+
+    RATE_WINDOW = 0.05  # s: the mass flow rate is the discharged mass over this trailing window
+
+    def __init__(self, model, results: Results, ale=None):
+        from dolfinx import la
+
+        from silo_dolfinx.geometry.cells import cycle_nodes, orientation, tensor_nodes
+
+        self.model, self.ale, self.results = model, ale, results
+        s = model.solver
+        self.outlet_csv = results.table(schema.OUTLET)
+        self.mesh_csv = results.table(schema.MESH_QUALITY)
+        self._form = s.forms.tributary_area_form(model.sm.facet_tags, FACET_TAGS["outlet"])
+        self._area = la.vector(s.V.dofmap.index_map, 2)
+        mesh = model.sm.mesh
+        self._cn_t = tensor_nodes(mesh, s.n_cells_owned)
+        self._cn = cycle_nodes(mesh, s.n_cells_owned)
+        self._orient = orientation(mesh.geometry.x, self._cn)
+        self._axis_top = np.intersect1d(model.sm.nodes_on("top"), model.sm.nodes_on("axis"))
+        self._z_top0 = self._axis_top_z()
+        self.t0 = s.t
+        self.mass0 = self._mass_in_silo()[0]
+        self._hist = deque([(s.t, 0.0)])
+        self.worst_balance = 0.0
+        self.aspect0 = self._quality()[1]
+        self.flow = []  # (t, rate, v_mean, max aspect ratio, discharged, nominal) samples
+
+    def _axis_top_z(self) -> float:
+        x = self.model.sm.mesh.geometry.x
+        z = float(x[self._axis_top, 1].max()) if self._axis_top.size else -np.inf
+        return self.model.sm.comm.allreduce(z, op=MPI.MAX)
+
+    def _mass_in_silo(self) -> tuple[float, float]:
+        """(mass in the silo, mass below the outlet plane) over all ranks (kg)."""
+        from silo_dolfinx.geometry.cells import qp_volumes
+
+        s = self.model.solver
+        x = np.ascontiguousarray(self.model.sm.mesh.geometry.x[:, :2])
+        dV = np.zeros(s.n_cells_owned * s.nq)
+        qp_volumes(x, self._cn_t, np.ascontiguousarray(s.forms.points, dtype=float),
+                   np.ascontiguousarray(s.forms.weights, dtype=float), s.n_cells_owned, dV)
+        m = (s.rho * dV).reshape(-1, s.nq).sum(axis=1)
+        below = x[self._cn_t].mean(axis=1)[:, 1] < 0.0
+        tot = self.model.sm.comm.allreduce(np.array([m[~below].sum(), m[below].sum()]), op=MPI.SUM)
+        return float(tot[0]), float(tot[1])
+
+    def _quality(self) -> tuple[float, float]:
+        from silo_dolfinx.geometry.quality import worst_cells
+
+        x = self.model.sm.mesh.geometry.x
+        s_, a = worst_cells(x, self._cn, self._orient, self._cn.shape[0])
+        c = self.model.sm.comm
+        return c.allreduce(s_, op=MPI.MIN), c.allreduce(a, op=MPI.MAX)
+
+    def _outlet_flux(self) -> tuple[float, float]:
+        """(∫ −v_z dA over the outlet, outlet area), over all ranks."""
+        from dolfinx import fem, la
+
+        s = self.model.solver
+        self._area.array[:] = 0.0
+        fem.assemble_vector(self._area.array, self._form)
+        self._area.scatter_reverse(la.InsertMode.add)
+        w = self._area.array.reshape(-1, 2)[: s.n_owned, 0]
+        vz = s.v[: s.n_owned, 1]
+        num = self.model.sm.comm.allreduce(np.array([float(np.dot(w, -vz)), float(w.sum())]), op=MPI.SUM)
+        return float(num[0]), float(num[1])
+
+    def sample(self, stage: str = "discharge") -> None:
+        s = self.model.solver
+        inside, below = self._mass_in_silo()
+        out = self.ale.totals()["discharged_mass"] if self.ale is not None else below
+        # over a trailing window: the remap counts outflow in packets (every `frequency` steps),
+        # so the difference between two consecutive samples aliases
+        self._hist.append((s.t, out))
+        while len(self._hist) > 2 and self._hist[1][0] <= s.t - self.RATE_WINDOW:
+            self._hist.popleft()
+        t_prev, out_prev = self._hist[0]
+        rate = (out - out_prev) / (s.t - t_prev) if s.t > t_prev else 0.0
+        flux, area = self._outlet_flux()
+        v_mean = flux / area if area > 0 else 0.0
+        err = (self.mass0 - inside - (out if self.ale is not None else 0.0)) / self.mass0
+        self.worst_balance = max(self.worst_balance, abs(err))
+        nominal = self.model.scene.material.density * flux  # ρ0 ∫ −v_z dA
+        self.outlet_csv.write([s.t, out, inside, rate, v_mean, err, nominal, s.dt_prev])
+        smin, amax = self._quality()
+        self.mesh_csv.write([s.t, self._z_top0 - self._axis_top_z(), smin, amax])
+        self.flow.append((s.t, rate, v_mean, amax, out, nominal))
+
+    def summary(self) -> dict:
+        d = {"mass_at_opening": self.mass0, "mass_balance_error_max": self.worst_balance}
+        if self.flow:
+            f = np.array(self.flow)
+            t = f[:, 0] - self.t0
+            late = t >= 0.5 * t[-1]  # the second half: past the start-up transient
+            i0 = int(np.argmax(late))
+            span = f[-1, 0] - f[i0, 0]
+            d.update(mean_mass_flow_rate_second_half=float((f[-1, 4] - f[i0, 4]) / span) if span > 0 else 0.0,
+                     mean_outlet_velocity_second_half=float(f[late, 2].mean()),
+                     mean_nominal_mass_flow_rate_second_half=float(f[late, 5].mean()),
+                     initial_max_aspect_ratio=self.aspect0, final_max_aspect_ratio=float(f[-1, 3]))
+        if self.ale is not None:
+            d["ale"] = self.ale.totals()
+            if self.ale.tracers is not None:
+                d["tracers"] = self._write_tracers()
+        return d
+
+    def _write_tracers(self) -> dict:
+        """tracers.csv: one row per tracer (schema.TRACERS)."""
+        g = self.ale.tracers.gather()  # collective
+        comm = self.model.sm.comm
+        if g is None:
+            return comm.bcast(None, root=0)
+        rows = [[int(i), int(k), *p0, *p, ""] for i, k, p0, p in zip(g["id"], g["row"], g["initial"], g["xy"])]
+        rows += [[int(i), int(k), *p0, "", "", float(t)]
+                 for i, k, p0, t in zip(g["out_id"], g["out_row"], g["out_initial"], g["out_t"])]
+        self.results.write_table(schema.TRACERS, sorted(rows, key=lambda r: r[0]))
+        return comm.bcast({"seeded": len(rows), "inside": int(g["id"].size), "discharged": int(g["out_id"].size)},
+                          root=0)

@@ -1,0 +1,112 @@
+"""A scene, run: mesh → model (effects, stages) → the time loop → the results folder.
+
+:func:`build_model` composes the run from the scene: the silo model with the effects the scene
+asks for (:mod:`.effects`) and its stages (:mod:`.stages`); :func:`run` adds the output
+streams (:mod:`silo_dolfinx.output.streams`) and runs the stages. The loop itself is
+:func:`silo_dolfinx.simulation.stages.advance`; one step is
+:meth:`silo_dolfinx.solver.ExplicitSolver.step`. See docs/architecture.md.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+from silo_dolfinx.geometry.mesher import mesh_scene
+from silo_dolfinx.output import Progress, Results
+from silo_dolfinx.output.streams import Outputs
+from silo_dolfinx.simulation.effects import ramp_velocity, smooth_step
+from silo_dolfinx.simulation.model import SiloModel
+from silo_dolfinx.simulation.stages import run_stages, total_time
+from silo_dolfinx.solver import InstabilityError
+
+
+def build_model(scene, comm=None, sm=None) -> SiloModel:
+    """The scene's silo with its effects and stages (meshing it unless ``sm`` is given)."""
+    comm = MPI.COMM_WORLD if comm is None else comm
+    return SiloModel(scene, sm if sm is not None else mesh_scene(scene, comm))
+
+
+def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> dict:
+    """Run a scene into the results folder ``out``; returns the summary (also on disk)."""
+    comm = MPI.COMM_WORLD if comm is None else comm
+    results = Results(out, scene, comm)
+    wall0 = time.time()
+    model = None
+    try:
+        sm = mesh_scene(scene, comm)
+        _mesh_record(scene, sm, results)
+        model = build_model(scene, comm, sm)
+        s = model.solver
+        results.update(material=model.material.name, stable_dt_initial=s.dt_crit,
+                       time_step_scale=s.numerics.time_step_scale, effects=list(model.effects),
+                       ale="on in the discharge" if "ale" in model.effects else "off (Lagrangian)")
+        model.outputs = Outputs(model, results)
+        stages = run_stages(model, Progress(comm, total_time(scene), every=progress_every))
+        _finish(model, results, stages, wall0)
+    except InstabilityError as err:
+        results.finish("failed", str(err))
+        raise
+    except BaseException as err:
+        results.finish("failed", f"{type(err).__name__}: {err}")
+        raise
+    finally:
+        if model is not None and model.outputs is not None:
+            model.outputs.close()
+    return results.summary
+
+
+def _mesh_record(scene, sm, results: Results) -> None:
+    from silo_dolfinx.geometry.plot import plot_mesh
+    from silo_dolfinx.geometry.quality import quality_report
+
+    q = quality_report(sm.mesh)
+    plot_mesh(sm, results.path("mesh.png"), title=f"{scene.title}: {q['cells']} cells")
+    results.update(cells=q["cells"], mesh_quality=q)
+
+
+def _finish(model: SiloModel, results: Results, stages: list[dict], wall0: float) -> None:
+    s = model.solver
+    e = s.global_energy()
+    results.summary["warnings"] += _dilation_warnings(model.scene, stages)
+    results.update(stages=stages, steps=s.steps, rejected_steps=s.rejected, simulated_time=s.t,
+                   energy={k: getattr(e, k) for k in ("kinetic", "elastic", "plastic", "viscous", "damping",
+                                                      "gravity", "external", "contact")},
+                   energy_balance_error=e.relative_error(s.energy_scale),
+                   energy_balance_error_max=model.outputs.max_abs_balance / max(s.energy_scale, 1e-300),
+                   steps_per_second=s.steps / max(time.time() - wall0, 1e-9))
+    results.finish("completed")
+
+
+DILATION_WARNING = 0.5  # a cell below this fraction of the solid's density is no granular solid
+
+
+def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
+    """A warning for each stage that ended with a cell dilated below half the solid's density,
+    naming the cause: without a critical state (max_dilation = 0, ψ > 0) the cone's dilation
+    never stops; with one, what remains is tensile separation at the cone's apex (a solid
+    stretched at near-zero pressure: the free-fall zone above an outlet, a free-surface
+    crater), which a Drucker-Prager solid never recompacts."""
+    m = scene.material
+    rho0 = m.density
+    out = []
+    for st in stages:
+        if st["density_min"] < DILATION_WARNING * rho0:
+            head = (f"[material] by the end of the {st['name']} stage a cell had dilated to {st['density_min']:.4g} "
+                    f"kg/m³ ({100 * st['density_min'] / rho0:.0f} % of density = {rho0:g}): ")
+            if m.get("dilation_angle", 0.0) > 0.0 and m.get("max_dilation", 0.0) == 0.0:
+                out.append(head + f"with dilation_angle = {m.dilation_angle:g} and max_dilation = 0 the solid dilates "
+                           "for as long as it shears. Set material.max_dilation > 0 (the default 0.05: a critical "
+                           "state) or dilation_angle = 0 if the flowing solid should keep its density.")
+            else:
+                out.append(head + "the cone's dilation is bounded (max_dilation or ψ = 0), so this is tensile "
+                           "separation at the cone's apex, where the solid is stretched at near-zero pressure (the "
+                           "free-fall zone above an outlet, a free-surface crater); Drucker-Prager does not "
+                           "recompact it. Its stable Δt falls with its density.")
+    return out
+
+
+__all__ = ["InstabilityError", "SiloModel", "build_model", "mesh_scene", "ramp_velocity", "run", "smooth_step",
+           "total_time"]

@@ -1,0 +1,188 @@
+"""Stages of a run and the time loop (thesis ch. 3 and 4.2).
+
+A stage declares what it changes — whether the fill damping acts (``damped``), what it does
+when it begins, when it may stop early — and the loop applies that; no stage overwrites a
+setting another one relies on.
+
+K0 start (``fill.method = "k0"``)
+    every cell active, geostatic stress σ_zz = −(ρ g (H − z) + q), σ_rr = σ_θθ = K0 σ_zz, no
+    time stepping.
+Layer fill (``layers``; ``ramp`` is one layer)
+    layer k activated stress-free at k·T/N with its gravity ramped over ``ramp_fraction`` of
+    its interval; inactive layers are not integrated at all.
+Store
+    closed outlet, full gravity; ends at its duration or once the kinetic energy falls below
+    ``kinetic_energy_tol`` × the work of gravity.
+Discharge (free or controlled)
+    the gate is removed (free) or the outlet driven down (controlled); ALE, if on, starts.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+
+from silo_dolfinx._mpi import reduce_scalar
+from silo_dolfinx.simulation.effects import smooth_step
+
+
+@dataclass
+class Stage:
+    """One stage: its name, how long, whether the fill damping acts during it."""
+
+    name: str
+    duration: float
+    damped: bool = False
+
+    def segments(self, model):
+        """(end time, progress label) of each stretch of time stepping; set-up in between."""
+        yield model.solver.t + self.duration, self.name
+
+    def stop(self, model) -> bool:
+        """Whether to end the stage early (checked after every step)."""
+        return False
+
+    def record(self, model) -> dict:
+        return {}
+
+
+class K0Start(Stage):
+    """Every cell active with the geostatic stress of ``fill.k0``; no time stepping."""
+
+    def __init__(self, k0: float):
+        super().__init__("fill", 0.0)
+        self.k0 = k0
+
+    def segments(self, model):
+        s = model.solver
+        model.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
+        model.set_geostatic_stress(self.k0)
+        return iter(())
+
+    def record(self, model) -> dict:
+        return {"method": "k0"}
+
+
+class LayerFill(Stage):
+    """N horizontal layers, one activated every T/N, its gravity ramped in (thesis ch. 3.4.1)."""
+
+    def __init__(self, fill):
+        super().__init__("fill", fill.duration, damped=True)
+        self.method, self.ramp_fraction = fill.method, fill.ramp_fraction
+
+    def segments(self, model):
+        s = model.solver
+        layers = model.layers()
+        n = len(layers)
+        t0, T = s.t, self.duration / n
+        active = np.zeros(0, np.int32)
+        for k, cells in enumerate(layers):
+            active = np.union1d(active, cells).astype(np.int32)
+            model.activate(active, cells, s.t, self.ramp_fraction * T, last=(k == n - 1))
+            model.outputs.maybe(self.name)
+            yield t0 + (k + 1) * T, f"fill {k + 1}/{n}"
+        self.layers = n
+
+    def record(self, model) -> dict:
+        return {"method": self.method, "layers": self.layers}
+
+
+class Store(Stage):
+    """Closed outlet, full gravity, until at rest or the duration is over."""
+
+    def __init__(self, store):
+        super().__init__("store", store.duration, damped=True)
+        self.tol = store.kinetic_energy_tol
+
+    def segments(self, model):
+        self.t_end = model.solver.t + self.duration
+        yield self.t_end, self.name
+
+    def stop(self, model) -> bool:
+        """At rest: checked once the history sample due by now has been taken."""
+        o = model.outputs
+        if self.tol <= 0.0 or o.next_history - o.dt_history > model.solver.t:
+            return False
+        e = model.solver.global_energy()
+        return e.kinetic < self.tol * max(e.gravity, 1e-300)
+
+    def record(self, model) -> dict:
+        at_rest = model.solver.t < self.t_end - self.duration * 1e-9
+        return {"ended_on": "kinetic energy" if at_rest else "duration"}
+
+
+class Discharge(Stage):
+    """The outlet opens (the effects begin: gate removed, drive, ALE) and the silo drains."""
+
+    def __init__(self, discharge):
+        super().__init__("discharge", discharge.duration)
+        self.mode = discharge.mode
+
+    def segments(self, model):
+        model.outputs.begin_discharge(model)
+        yield model.solver.t + self.duration, self.name
+
+    def record(self, model) -> dict:
+        return {"mode": self.mode, **model.outputs.discharge_summary()}
+
+
+def compose(scene) -> list[Stage]:
+    """The stages ``scene`` asks for, in order."""
+    f = scene.fill
+    stages: list[Stage] = [K0Start(f.k0) if f.method == "k0" else LayerFill(f), Store(scene.store)]
+    if scene.discharge.mode != "none":
+        stages.append(Discharge(scene.discharge))
+    return stages
+
+
+def total_time(scene) -> float:
+    """Simulated time of the whole run (s), for the progress ETA."""
+    return sum(st.duration for st in compose(scene))
+
+
+# ---------------------------------------------------------------------------- the loop
+def run_stages(model, progress) -> list[dict]:
+    """Every stage in turn: its effects begin, it steps, its end is recorded."""
+    records = []
+    for stage in model.stages:
+        s = model.solver
+        t0, steps0, wall0 = s.t, s.steps, time.time()
+        s.damping = model.damping_alpha if stage.damped else 0.0  # the stage's declaration
+        for effect in model.effects.values():
+            effect.begin(stage)
+        for t_end, label in stage.segments(model):
+            advance(model, stage, t_end, label, progress)
+        model.outputs.stage_end(stage.name)
+        records.append(_stage_record(stage, model, t0, steps0, wall0) | stage.record(model))
+    return records
+
+
+def advance(model, stage: Stage, t_end: float, label: str, progress) -> None:
+    """The time loop of thesis ch. 3: a Lagrangian step (predict → contact → update →
+    internal force → Δt), then the post-step hooks (every N steps: smooth + remap), output."""
+    s = model.solver
+    while s.t < t_end * (1 - 1e-12) - 1e-15:
+        s.dt = min(s.dt, t_end - s.t)  # land on the stage's end
+        for hook in model.hooks:
+            hook.before_step()
+        s.step()
+        for hook in model.hooks:
+            hook.after_step()
+        model.outputs.maybe(stage.name)
+        progress(label, s.t, s.steps, s.dt)
+        if stage.stop(model):
+            break
+
+
+def _stage_record(stage: Stage, model, t0: float, steps0: int, wall0: float) -> dict:
+    s = model.solver
+    return {"name": stage.name, "t_start": t0, "t_end": s.t, "steps": s.steps - steps0,
+            "wall_clock_s": round(time.time() - wall0, 3), "dt_last": s.dt_prev,
+            "density_min": reduce_scalar(s.comm, float(s.rho_cell.min(initial=np.inf)), MPI.MIN)}
+
+
+__all__ = ["Discharge", "K0Start", "LayerFill", "Stage", "Store", "advance", "compose", "run_stages",
+           "smooth_step", "total_time"]

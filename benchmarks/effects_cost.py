@@ -11,8 +11,8 @@ tracers, wall histories at 200 Hz and field output every 0.1 s. Each row switche
 off (or to its cheaper setting) and reports the discharge stage's wall-clock per step (output
 included) and the effect's share of the all-on step, 1 − t_without / t_all_on. A share near 0
 (within the run-to-run noise, the spread column) means an effect that costs nothing when off
-and little when on; what a scene switches off is never constructed (tests/test_explicit.py
-checks that for the material state).
+and little when on; what a scene switches off is never constructed
+(tests/test_simulation.py::test_an_effect_that_is_off_is_not_built checks every effect).
 """
 
 from __future__ import annotations

@@ -44,7 +44,8 @@ EFFECTS = {
     "ALE": ("Lagrangian", ["ale.enabled=false"]),
     "tracers (120)": ("none", ["ale.tracer_rows=0"]),
     "histories at 200 Hz": ("at 10 Hz", ["output.history_rate=10.0"]),
-    "field output every 0.1 s": ("none", ["output.field_interval=1000.0"]),
+    "wall stations (10)": ("none", ["output.stations=[]"]),
+    "field output every 0.1 s": ("none", ["output.field_interval=0.0"]),
 }
 
 

@@ -89,6 +89,98 @@ def spectrum(t, x, *, detrend: str = "linear", window: str = "hann", t_start: fl
     return Spectrum(f, amp, 1.0 / (n * step))
 
 
+def windowed_spectra(t, x, t_start: float, window: float, count: int, **kw) -> list[Spectrum]:
+    """Spectra of ``count`` consecutive windows of length ``window`` from t_start (Fig. 4-12:
+    six 5-s windows of a discharge); windows past the end of the record are left out."""
+    t = np.asarray(t, float)
+    out = []
+    for i in range(count):
+        a = t_start + i * window
+        if a + window > t[-1] + 1e-9 * window:
+            break
+        out.append(spectrum(t, x, t_start=a, t_end=a + window, **kw))
+    return out
+
+
+LOW_CUTOFF = 1.0  # Hz: the thesis' "< 1 Hz" slip-stick / intermittent-arching fluctuation
+
+
+def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float | None = None,
+                              cutoff: float = LOW_CUTOFF) -> tuple[float, float]:
+    """(RMS, dominant frequency in Hz) of the part of a history below ``cutoff``.
+
+    The window [t_start, t_end] is resampled uniformly, its mean removed, and the result
+    low-pass filtered by a 4th-order Butterworth filter run forwards and backwards (zero
+    phase: |H|² = 1/(1 + (f/f_c)⁸), −6 dB at the cutoff; 0.5 Hz passes at 0.996, 0.7 Hz at
+    0.946, a 5 Hz wave under a 1 Hz cutoff is attenuated by ~10⁻⁵·⁶). The RMS is of the filtered signal away from the record's
+    ends (1/cutoff s at each end are left out where the record is long enough: the filter's
+    end effects live there); the dominant frequency is the largest peak of its Hann spectrum
+    above one bin (resolution 1/T: a window of T seconds resolves nothing slower than 1/T)."""
+    from scipy import signal as sps
+
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    sel = np.ones(t.size, bool)
+    if t_start is not None:
+        sel &= t >= t_start
+    if t_end is not None:
+        sel &= t <= t_end
+    t, x = t[sel], x[sel]
+    if t.size < 16:
+        raise ValueError("need at least 16 samples for the low-frequency fluctuation")
+    tu = np.linspace(t[0], t[-1], t.size)
+    xu = np.interp(tu, t, x) - np.mean(x)
+    fs = (t.size - 1) / (t[-1] - t[0])
+    sos = sps.butter(4, cutoff, btype="low", fs=fs, output="sos")
+    low = sps.sosfiltfilt(sos, xu, padlen=min(t.size - 1, int(3 * fs / cutoff)))
+    # the filter's end effects (a record does not end on a period of its faster waves) reach
+    # about 1/cutoff into it: the RMS is taken inside, where they have died out
+    edge = (tu >= tu[0] + 1.0 / cutoff) & (tu <= tu[-1] - 1.0 / cutoff)
+    if edge.sum() < t.size // 2:
+        edge[:] = True
+    s = spectrum(tu, low, detrend="constant")
+    peaks = s.peaks(1, min_frequency=s.resolution)
+    return float(np.sqrt(np.mean(low[edge] ** 2))), float(peaks[0]) if peaks.size else float("nan")
+
+
+def mobilised_friction(p_n, p_s, p_min: float = 1.0) -> np.ndarray:
+    """|p_s| / p_n where the wall is loaded (p_n > p_min Pa), NaN elsewhere (Figs. 4-13/4-14)."""
+    p_n = np.asarray(p_n, float)
+    p_s = np.asarray(p_s, float)
+    out = np.full(p_n.shape, np.nan)
+    on = p_n > p_min
+    out[on] = np.abs(p_s[on]) / p_n[on]
+    return out
+
+
+def slip_fraction(slip_velocity, threshold: float = 1e-4) -> float:
+    """Fraction of the samples in which the wall node slides (|v_slip| > threshold m/s)."""
+    v = np.abs(np.asarray(slip_velocity, float))
+    return float(np.mean(v > threshold)) if v.size else float("nan")
+
+
+def station_means(history: dict, t_start: float, t_end: float, column: str = "p_n") -> tuple[np.ndarray, np.ndarray]:
+    """(mean height, time-averaged ``column``) of every wall station over [t_start, t_end]
+    (eq. 4-9), from a wall_history.csv read by :func:`silo_dolfinx.output.read_csv`; stations
+    in index order."""
+    st = np.asarray(history["station"], float)
+    z, v = [], []
+    for k in np.unique(st):
+        m = st == k
+        z.append(time_average(history["t"][m], history["z"][m], t_start, t_end))
+        v.append(time_average(history["t"][m], history[column][m], t_start, t_end))
+    return np.array(z), np.array(v)
+
+
+def overpressure(z, p_discharge, z_fill, p_fill) -> np.ndarray:
+    """Discharge over filling pressure at heights z: the discharge mean divided by the
+    end-of-fill profile interpolated there (NaN where the fill pressure is ~0)."""
+    order = np.argsort(z_fill)
+    pf = np.interp(np.asarray(z, float), np.asarray(z_fill, float)[order], np.asarray(p_fill, float)[order])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(pf > 1e-9 * np.max(np.abs(pf)), np.asarray(p_discharge, float) / pf, np.nan)
+
+
 def representative_deviation(values, reference, normaliser=None) -> float:
     """S0 = √(mean(((P − P0)/N)²)): eq. 3-13 with N = P0 (pointwise); eq. 5-18 with N = σ⁺0
     (a scalar) and P0 the predicted disturbance."""

@@ -6,6 +6,11 @@ Every figure uses the thesis' axes and shows the matching theory beside the simu
   Janssen (cylindrical walls), Walker κ = −1 / +1 and McLean (hoppers), EN 1991-4;
 * ``wall_history.png`` — p_n(t) at the wall stations;
 * ``spectra.png`` — amplitude spectra at the stations, eq. 4-12's frequency marked;
+* ``discharge_pressures.png`` (+ ``discharge_pressures.csv``) — eq. 4-9 means over the first
+  2 s and 10 s of the discharge against filling, and the overpressure (Figs. 4-6, 4-8);
+* ``wall_dynamics.png`` (+ ``wall_dynamics.csv`` for every station) — windowed spectra
+  (Fig. 4-12) and mobilised friction (Figs. 4-13/4-14) at the station nearest h/4; the < 1 Hz
+  RMS and frequency, the wave peak, the slip fraction per station;
 * ``outlet.png`` — outlet velocity and mass flow rate against Beverloo (eq. 4-6/4-8);
 * ``flow_channel.png`` — the flow-channel boundary (v_z = 0.001 × centreline, ch. 6.4.3);
 * ``mesh_quality.png`` — aspect ratio against top-surface drop (Fig. 3-18), scaled Jacobian;
@@ -272,6 +277,124 @@ class Report:
         if f_theory:
             self.numbers.append(("eq. 4-12 longitudinal frequency", f"{f_theory:.3g} Hz"))
 
+    def _table(self, f, rows) -> None:
+        from silo_dolfinx.output.writer import CsvSeries
+
+        csv = CsvSeries(self.folder / f.pattern, f.names, True)
+        csv.write(*rows)
+        csv.close()
+
+    def _discharge_history(self):
+        """(wall history, opening time, end) when there is a discharge to analyse, else None."""
+        h = self._history()
+        t0, t1 = self._stage_times().get("discharge", (None, None))
+        if h is None or t0 is None or not t1 > t0:
+            return None
+        return h, t0, t1
+
+    def discharge_pressures(self) -> None:
+        """Eq. 4-9 means over the first 2 s and 10 s of the discharge against the end of
+        filling (Figs. 4-6, 4-8): discharge_pressures.csv and a figure."""
+        import matplotlib.pyplot as plt
+
+        from silo_dolfinx.output.schema import DISCHARGE_PRESSURES
+
+        d = self._discharge_history()
+        fill = read_csv(self.folder / "wall_profile_fill.csv")
+        if d is None or fill is None:
+            self.missing.append("discharge pressures (needs a discharge, wall_history.csv, wall_profile_fill.csv)")
+            return
+        h, t0, t1 = d
+        means = {w: analysis.station_means(h, t0, min(t0 + w, t1)) for w in (2.0, 10.0)}
+        z = means[2.0][0]
+        p_fill = np.interp(z, *(a[np.argsort(fill["z"])] for a in (fill["z"], fill["p_n"])))
+        ratio = {w: analysis.overpressure(z, means[w][1], fill["z"], fill["p_n"]) for w in means}
+        self._table(DISCHARGE_PRESSURES, [[k, z[k], p_fill[k], means[2.0][1][k], means[10.0][1][k], ratio[2.0][k],
+                                           ratio[10.0][k]] for k in range(z.size)])
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 5), sharey=True)
+        a1.plot(fill["p_n"] / 1e3, fill["z"], "k-", lw=1, label="end of filling")
+        for w, style in ((2.0, "bo-"), (10.0, "rs-")):
+            span = min(w, t1 - t0)
+            a1.plot(means[w][1] / 1e3, z, style, ms=4, label=f"discharge mean, first {span:g} s")
+            a2.plot(ratio[w], z, style, ms=4, label=f"first {span:g} s")
+        a2.axvline(1.0, color="0.5", lw=0.8)
+        a1.set_xlabel("wall pressure p_n (kPa)")
+        a1.set_ylabel("height z (m)")
+        a2.set_xlabel("discharge / filling pressure")
+        for a in (a1, a2):
+            a.legend(fontsize=7)
+            a.grid(alpha=0.3)
+        self._save(fig, "discharge_pressures.png", "Time-averaged discharge pressures (eq. 4-9) against filling, "
+                   "and the overpressure (Figs. 4-6, 4-8).")
+        r = ratio[10.0]
+        if np.any(np.isfinite(r)):
+            k = int(np.nanargmax(r))
+            self.numbers.append((f"discharge overpressure, first {min(10.0, t1 - t0):g} s (max, where)",
+                                 f"{r[k]:.3g} at z = {z[k]:.2f} m; above filling at {np.sum(r > 1)}/{r.size} stations"))
+
+    def wall_dynamics(self) -> None:
+        """Why the pressure pulses, per station over the discharge: the < 1 Hz fluctuation
+        (RMS, frequency), the stress-wave peak, the mobilised friction and the slip fraction
+        (wall_dynamics.csv); windowed spectra (Fig. 4-12) and the mobilised friction (Figs.
+        4-13/4-14) at the station nearest a quarter of the fill height (the thesis' point e)."""
+        import matplotlib.pyplot as plt
+
+        from silo_dolfinx.output.schema import WALL_DYNAMICS
+
+        d = self._discharge_history()
+        if d is None:
+            self.missing.append("wall dynamics (needs a discharge and wall_history.csv)")
+            return
+        h, t0, t1 = d
+        rows = []
+        for k in np.unique(h["station"]):
+            sel = (h["station"] == k) & (h["t"] >= t0) & (h["t"] <= t1)
+            if sel.sum() < 16:
+                continue
+            t, p = h["t"][sel], h["p_n"][sel]
+            rms, f_low = analysis.low_frequency_fluctuation(t, p)
+            wave = analysis.spectrum(t, p).peaks(1, min_frequency=analysis.LOW_CUTOFF)
+            mob = analysis.mobilised_friction(p, h["p_s"][sel])
+            rows.append([int(k), float(np.mean(h["z"][sel])), float(np.mean(p)), rms, f_low,
+                         float(wave[0]) if wave.size else np.nan,
+                         float(np.nanmean(mob)) if np.any(np.isfinite(mob)) else np.nan,
+                         analysis.slip_fraction(h["slip_velocity"][sel])])
+        if not rows:
+            self.missing.append("wall dynamics (too few discharge samples)")
+            return
+        self._table(WALL_DYNAMICS, rows)
+        hf = self.scene.geometry.fill_height if self.scene is not None else max(r[1] for r in rows) * 2
+        e = min(rows, key=lambda r: abs(r[1] - 0.25 * hf))
+        self.numbers.append((f"station z = {e[1]:.2f} m (≈ h/4, point e): < 1 Hz RMS, its frequency; wave peak",
+                             f"{e[3]:.3g} Pa at {e[4]:.3g} Hz; {e[5]:.3g} Hz"))
+        self.numbers.append((f"station z = {e[1]:.2f} m: mobilised |p_s|/p_n, time sliding",
+                             f"{e[6]:.4f}; {100 * e[7]:.0f} % of the discharge"))
+        sel = (h["station"] == e[0]) & (h["t"] >= t0) & (h["t"] <= t1)
+        t, p = h["t"][sel], h["p_n"][sel]
+        span = (t1 - t0) / 6.0
+        spectra = analysis.windowed_spectra(t, p, t0, span, 6)
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.5))
+        for i, sp in enumerate(spectra):
+            a1.plot(sp.frequency, sp.amplitude, lw=0.8, label=f"{t0 + i * span - t0:.3g}–{t0 + (i + 1) * span - t0:.3g} s")
+        if self.scene is not None:
+            m = self.scene.material
+            f4 = theory.longitudinal_frequency(m.youngs_modulus, m.poisson_ratio, m.density, hf)
+            a1.axvline(f4, color="r", ls="--", lw=1, label=f"eq. 4-12 (H = {hf:g} m): {f4:.2f} Hz")
+        a1.set_xscale("log")
+        a1.set_xlabel("frequency (Hz)")
+        a1.set_ylabel("amplitude of p_n (Pa)")
+        a1.legend(fontsize=6, title="after opening", title_fontsize=7)
+        a2.plot(t - t0, analysis.mobilised_friction(p, h["p_s"][sel]), "k-", lw=0.6)
+        if self.scene is not None and self.scene.wall.friction == "coulomb":
+            a2.axhline(self.scene.wall.mu, color="r", ls="--", lw=1, label=f"μ = {self.scene.wall.mu:g}")
+            a2.legend(fontsize=7)
+        a2.set_xlabel("time after opening (s)")
+        a2.set_ylabel("mobilised friction |p_s| / p_n")
+        for a in (a1, a2):
+            a.grid(alpha=0.3)
+        self._save(fig, "wall_dynamics.png", f"At z = {e[1]:.2f} m: spectra of six consecutive windows (Fig. 4-12) "
+                   "and the mobilised friction (Figs. 4-13/4-14).")
+
     def outlet(self) -> None:
         import matplotlib.pyplot as plt
 
@@ -481,7 +604,8 @@ class Report:
         self.numbers = [(k, str(v)) for k, v in pairs if v is not None] + self.numbers
 
     def write(self) -> Path:
-        for part in (self.wall_profiles, self.wall_histories, self.spectra, self.outlet, self.flow_channel,
+        for part in (self.wall_profiles, self.wall_histories, self.spectra, self.discharge_pressures,
+                     self.wall_dynamics, self.outlet, self.flow_channel,
                      self.mesh_quality, self.flow_pattern, self.energy, self.renders):
             try:
                 part()

@@ -106,3 +106,54 @@ def test_janssen_comparison_on_janssen_itself():
     ps = np.where(z < c["z"].mean(), 0.5 * mu * ph, mu * ph)
     c = analysis.janssen_comparison(z, ph, ps, fill_height=H, radius=R, mu=mu, k=K, unit_weight=g, z_min=0.1)
     assert abs(c["slip_fraction"] - 0.5) < 0.01
+
+
+# ------------------------------------------------------------------ ch. 4 dynamic wall pressure
+def test_windowed_spectra_follow_a_tone_that_changes():
+    """Six consecutive 5-s windows (Fig. 4-12) of a record whose wave is 5 Hz for 15 s, then
+    7 Hz: the first three windows peak at 5 Hz, the last three at 7 Hz, each within one bin
+    (0.2 Hz); a seventh window past the record's end is left out."""
+    rate = 200.0
+    t = np.arange(0.0, 30.0 + 0.5 / rate, 1.0 / rate)
+    x = 5000.0 + np.where(t < 15.0, 100.0 * np.sin(2 * math.pi * 5.0 * t), 100.0 * np.sin(2 * math.pi * 7.0 * t))
+    spectra = analysis.windowed_spectra(t, x, 0.0, 5.0, 7)
+    assert len(spectra) == 6
+    for i, sp in enumerate(spectra):
+        assert abs(sp.resolution - 0.2) < 1e-3
+        assert abs(sp.peaks(1, min_frequency=1.0)[0] - (5.0 if i < 3 else 7.0)) < sp.resolution
+
+
+def test_low_frequency_fluctuation_of_a_known_signal():
+    """p = 8000 + 300 sin(2π 0.4 t) + 200 sin(2π 5.2 t) over 20 s: the < 1 Hz part has RMS
+    300/√2 = 212.1 within 2 % (the filter passes 0.4 Hz at |H|² = 0.9993; the RMS is taken over
+    the 16 s inside the filter's end effects, 6.4 periods, where the mean of sin² may differ from
+    ½ by up to 1/(4π f T) = 1.2 %) and its frequency is 0.4 Hz within one bin
+    (0.05 Hz); the 5.2 Hz wave alone gives < 0.1 % of its amplitude (attenuated ~10⁻⁵·⁸)."""
+    rate = 200.0
+    t = np.arange(0.0, 20.0, 1.0 / rate)
+    low = 300.0 * np.sin(2 * math.pi * 0.4 * t)
+    rms, f = analysis.low_frequency_fluctuation(t, 8000.0 + low + 200.0 * np.sin(2 * math.pi * 5.2 * t))
+    assert rms == pytest.approx(300.0 / math.sqrt(2.0), rel=0.02)
+    assert abs(f - 0.4) < 1.0 / 20.0
+    rms_wave, _ = analysis.low_frequency_fluctuation(t, 8000.0 + 200.0 * np.sin(2 * math.pi * 5.2 * t))
+    assert rms_wave < 1e-3 * 200.0
+
+
+def test_mobilised_friction_and_slip_fraction():
+    """|p_s|/p_n where loaded (NaN where not); the fraction of samples sliding."""
+    m = analysis.mobilised_friction([1000.0, 2000.0, 0.0], [-267.0, 540.0, 5.0])
+    assert m[0] == pytest.approx(0.267) and m[1] == pytest.approx(0.27) and np.isnan(m[2])
+    assert analysis.slip_fraction([-0.2, -0.1, 0.0, 1e-6, -0.05]) == pytest.approx(0.6)
+
+
+def test_station_means_and_overpressure():
+    """Two stations with known histories: their eq. 4-9 means over [1, 3] s, and the
+    overpressure against a linear fill profile p = 1000 (2 − z)."""
+    t = np.arange(0.0, 4.0, 0.01)
+    hist = {"t": np.concatenate([t, t]), "station": np.repeat([0.0, 1.0], t.size),
+            "z": np.concatenate([np.full(t.size, 0.5), np.full(t.size, 1.5)]),
+            "p_n": np.concatenate([2000.0 + 100.0 * np.sin(2 * math.pi * t), 600.0 + 0.0 * t])}
+    z, p = analysis.station_means(hist, 1.0, 3.0)
+    assert z == pytest.approx([0.5, 1.5]) and p == pytest.approx([2000.0, 600.0], rel=1e-3)
+    ratio = analysis.overpressure(z, p, [0.0, 2.0], [2000.0, 0.0])
+    assert ratio == pytest.approx([2000.0 / 1500.0, 600.0 / 500.0], rel=1e-3)

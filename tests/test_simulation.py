@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 from conftest import scene_dict
 
 from silo_dolfinx.cli import main
@@ -149,3 +150,34 @@ def test_switched_off_outputs_and_ale_are_absent_from_a_run(shared_tmp, comm):
     comm.barrier()
     assert s["stages"][-1]["ale"]["remaps"] > 0 and "tracers" not in s["stages"][-1]
     assert not (shared_tmp / "notr" / "tracers.csv").exists()
+
+
+def test_point_histories_are_the_stress_of_the_cell_holding_the_point(shared_tmp, comm):
+    """Interior points fixed in space (output.points): at the end of a K0 start the history
+    equals the field snapshot's mean of the cell containing the point (to round-off), and
+    σ_zz = −ρ g (H − z) within ρ g h (the point may lie half a cell from the centroid the
+    cell mean belongs to)."""
+    from silo_dolfinx import analysis
+    from silo_dolfinx.output import read_csv
+
+    pts = [[0.05, 0.3], [0.15, 0.45]]
+    sc = small_scene(material={"model": "elastic", "density": 1000.0, "youngs_modulus": 5e5, "poisson_ratio": 0.3},
+                     fill={"method": "k0"}, discharge={"mode": "none"}, store={"duration": 0.01},
+                     output={"history_rate": 100.0, "field_interval": 0.005, "stations": [0.3], "points": pts})
+    out = shared_tmp / "points"
+    run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    h = read_csv(out / "point_history.csv")
+    snap = np.load(sorted((out / "fields").glob("snapshot_*.npz"))[0])
+    assert float(snap["t"]) == 0.0
+    areas = analysis.cell_areas(snap["corners"])
+    for k, (r, z) in enumerate(pts):
+        row = (h["point"] == k) & (h["t"] == 0.0)
+        assert row.sum() == 1
+        c = snap["corners"]
+        # the snapshot cell containing the point: its four sub-triangle areas add up to its area
+        sub = sum(0.5 * np.abs((c[:, j, 0] - r) * (c[:, (j + 1) % 4, 1] - z) - (c[:, (j + 1) % 4, 0] - r) * (c[:, j, 1] - z))
+                  for j in range(4))
+        i = int(np.argmin(np.abs(sub - areas)))
+        assert h["stress_zz"][row][0] == pytest.approx(float(snap["cell_stress_zz"][i]), rel=1e-12)
+        assert abs(h["stress_zz"][row][0] + 1000.0 * 9.81 * (0.6 - z)) < 1000.0 * 9.81 * 0.05

@@ -258,3 +258,6 @@ def _locate_brute(x, cn, n_cells, pts):
                 xi[k, 1] = min(max(b, 0.0), 1.0)
                 break
     return cell, xi
+
+
+locate_points = _locate_brute  # public name: cell and (ξ, η) of points among the first n cells

@@ -70,6 +70,17 @@ WALL_PROFILE = CsvFile("wall_profile_<stage>.csv", "Every wall node at the end o
     C("in_contact", "-", "1 if the node touches the wall, else 0"),
 ))
 
+POINT_HISTORY = CsvFile("point_history.csv", "Stress at the interior points (output.points, fixed in space) at "
+                        "the history rate: the mean of the cell containing each point (empty while it is in no "
+                        "active cell).", (
+    T, C("point", "-", "point index (output.points order)"),
+    C("r", "m", "radius of the point"), C("z", "m", "height of the point"),
+    C("stress_rr", "Pa", "radial stress (tension +)"), C("stress_zz", "Pa", "vertical stress"),
+    C("stress_tt", "Pa", "hoop stress"), C("stress_rz", "Pa", "shear stress"),
+    C("p", "Pa", "mean pressure −tr σ/3 (compression +)"), C("q", "Pa", "√(3 J2)"),
+    C("q_over_p", "-", "stress ratio q/p"),
+))
+
 OUTLET = CsvFile("outlet.csv", "The outlet during the discharge, at the history rate.", (
     T, C("discharged_mass", "kg", "mass that left (counted by the remap as it crosses the Eulerian outlet; "
          "Lagrangian: the mass of cells below the outlet plane)"),
@@ -95,7 +106,29 @@ TRACERS = CsvFile("tracers.csv", "One row per tracer at the end of the discharge
     C("discharged_at", "s", "when it left (empty while inside)"),
 ))
 
-FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, OUTLET, MESH_QUALITY, TRACERS)
+DISCHARGE_PRESSURES = CsvFile("discharge_pressures.csv", "Written by `silo report`: time-averaged wall pressures "
+                              "(eq. 4-9) over the first 2 s and the first 10 s of the discharge (or as much of "
+                              "them as was run) against the end of filling, per station.", (
+    C("station", "-", "station index"), C("z", "m", "mean height of the station over the window"),
+    C("p_fill", "Pa", "end-of-fill wall pressure (the fill profile interpolated at z)"),
+    C("p_discharge_2s", "Pa", "mean p_n over the first 2 s after opening"),
+    C("p_discharge_10s", "Pa", "mean p_n over the first 10 s after opening"),
+    C("overpressure_2s", "-", "p_discharge_2s / p_fill"), C("overpressure_10s", "-", "p_discharge_10s / p_fill"),
+))
+
+WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what makes the discharge pressure pulse, "
+                        "per station, over the discharge.", (
+    C("station", "-", "station index"), C("z", "m", "mean height of the station"),
+    C("p_mean", "Pa", "mean p_n over the discharge"),
+    C("low_rms", "Pa", "RMS of p_n below 1 Hz (window mean removed; zero-phase 4th-order Butterworth)"),
+    C("low_frequency", "Hz", "dominant frequency of that < 1 Hz part"),
+    C("wave_frequency", "Hz", "largest spectral peak of p_n above 1 Hz (the stress wave, eq. 4-12)"),
+    C("mobilised_friction", "-", "mean |p_s|/p_n while loaded"),
+    C("slip_fraction", "-", "fraction of the samples in which the station slides (|v_slip| > 0.1 mm/s)"),
+))
+
+FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,
+                              DISCHARGE_PRESSURES, WALL_DYNAMICS)
 
 
 def for_file(filename: str) -> CsvFile | None:

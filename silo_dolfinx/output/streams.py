@@ -5,6 +5,7 @@ stream             when it exists                                  writes
 =================  ==============================================  ==========================
 energy history     always                                          energy.csv
 wall history       output.stations not empty                       wall_history.csv
+point history      output.points not empty                         point_history.csv
 wall profiles      always (end of each stage)                      wall_profile_<stage>.csv
 fields             output.field_interval > 0                       fields/ (VTX, snapshots)
 discharge monitor  in a discharge                                  outlet.csv, mesh_quality.csv,
@@ -42,6 +43,8 @@ class Outputs:
         self.history: list = [self.energy]
         if len(out.stations):
             self.history.append(WallHistory(model, results))
+        if len(out.points):
+            self.history.append(PointHistory(model, results))
         self.fields = FieldOutput(model, results, out.field_interval) if out.field_interval > 0 else None
         self.monitor = None  # the discharge's outlet and mesh-quality monitor
         self._last_t = None
@@ -125,6 +128,53 @@ class WallHistory:
         rows = [[t, k, float(ss), *(float(np.interp(ss, w["s"], w[name])) for name in schema.WALL_HISTORY.names[3:])]
                 for k, ss in enumerate(self.station_s)]
         self.csv.write(*rows)
+
+
+class PointHistory:
+    """point_history.csv: stress at interior points fixed in space (output.points), each the
+    mean of the cell that contains it now (the mesh moves: located afresh at every sample)."""
+
+    def __init__(self, model, results: Results):
+        from silo_dolfinx.geometry.cells import tensor_nodes
+
+        self.model = model
+        self.points = np.asarray(model.scene.output.points, float).reshape(-1, 2)
+        s = model.solver
+        self.cn = tensor_nodes(model.sm.mesh, s.n_cells_owned)
+        self.csv = results.table(schema.POINT_HISTORY)
+        self._x = np.zeros((model.sm.mesh.geometry.x.shape[0], 2))
+
+    def values(self) -> np.ndarray:
+        """(n_points, 4) cell-mean stress at the points, NaN where no active cell holds one
+        (collective: the lowest rank that finds a point supplies it)."""
+        from silo_dolfinx.ale.tracers import locate_points
+
+        s, comm = self.model.solver, self.model.sm.comm
+        self._x[:] = self.model.sm.mesh.geometry.x[:, :2]
+        cell, _ = locate_points(self._x, self.cn, s.n_cells_owned, self.points)
+        active = s.active_cells
+        pos = np.minimum(np.searchsorted(active, cell), max(active.size - 1, 0))
+        found = (cell >= 0) & (active[pos] == cell) if active.size else np.zeros(cell.size, bool)
+        owner = np.where(found, comm.rank, comm.size).astype(np.int64)
+        comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
+        mine = found & (owner == comm.rank)
+        sig = s.sig.reshape(-1, s.nq, 4)[pos[mine]]
+        w = s.dV.reshape(-1, s.nq)[pos[mine]]
+        out = np.zeros((self.points.shape[0], 4))
+        out[mine] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
+        comm.Allreduce(MPI.IN_PLACE, out, op=MPI.SUM)
+        out[owner == comm.size] = np.nan
+        return out
+
+    def sample(self, stage: str) -> None:
+        from silo_dolfinx.invariants import p_q
+
+        sig = self.values()
+        p, q = p_q(sig)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(p > 1e-9, q / p, np.nan)
+        t = self.model.solver.t
+        self.csv.write(*[[t, k, *self.points[k], *sig[k], p[k], q[k], ratio[k]] for k in range(len(self.points))])
 
 
 class FieldOutput:

@@ -352,7 +352,7 @@ def _normalise(k: Key, v):
         return int(v)
     if k.kind == "floats":
         return [float(x) for x in v]
-    if k.kind == "points":
+    if k.kind in ("points", "locations"):
         return [[float(a), float(b)] for a, b in v]
     return v
 
@@ -366,7 +366,8 @@ def _check_value(section: str, k: Key, v) -> list[Problem]:
     fix = f" Fix: e.g. `{k.name} = {ex}`."
     unit = f" {k.unit}" if k.unit and k.unit != "-" else ""
     want = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string",
-            "choice": "a string", "floats": "a list of numbers", "points": "a list of [r, z] pairs"}
+            "choice": "a string", "floats": "a list of numbers", "points": "a list of [r, z] pairs",
+            "locations": "a list of [r, z] pairs"}
     if k.kind == "float" and not _is_num(v) or k.kind == "bool" and not isinstance(v, bool) \
             or k.kind in ("str", "choice") and not isinstance(v, str):
         return [Problem(section, k.name, f"= {v!r}: wrong type, expected {want[k.kind]}{unit}.{fix}")]
@@ -390,6 +391,12 @@ def _check_value(section: str, k: Key, v) -> list[Problem]:
         if bad:
             return [Problem(section, k.name, f"= {v!r}: every entry must be {k.range_text()} "
                             f"(offending: {_fmt(bad[0])}).{fix}")]
+    if k.kind == "locations":
+        ok = isinstance(v, list | tuple) and all(
+            isinstance(p, list | tuple) and len(p) == 2 and all(_is_num(x) and math.isfinite(x) for x in p) for p in v)
+        if not ok:
+            return [Problem(section, k.name, f"= {v!r}: must be a list of [r, z] pairs of numbers (or []). "
+                            f"Fix: e.g. `{k.name} = {ex}`.")]
     if k.kind == "points":
         ok = isinstance(v, list) and len(v) >= 2 and all(
             isinstance(p, list) and len(p) == 2 and all(_is_num(x) and math.isfinite(x) for x in p) for p in v)
@@ -506,4 +513,21 @@ def _resolve_derived(out: dict[str, Any]) -> list[Problem]:
                                  f"the {name} must be in [0, {top:g}] m. Fix: remove it or use a value "
                                  "in that range."))
                 break
+    p += _point_checks(o, g)
     return p
+
+
+def _point_checks(o, g) -> list[Problem]:
+    """Interior history points must lie in the fill: 0 ≤ z ≤ fill height, 0 ≤ r < wall radius."""
+    if not o.get("points"):
+        return []
+    from silo_dolfinx.geometry.shapes import outline_from_geometry
+
+    ol = outline_from_geometry(g)
+    hf = g["fill_height"]
+    for r, z in o["points"]:
+        rw = float(ol.wall.radius_at(min(max(z, 0.0), hf))[0]) if 0.0 <= z <= hf else 0.0
+        if not (0.0 <= z <= hf and 0.0 <= r < rw):
+            return [Problem("output", "points", f"point [{r:g}, {z:g}] m is outside the fill (z in [0, {hf:g}] m, "
+                            f"r in [0, wall radius) there). Fix: move it inside or remove it.")]
+    return []

@@ -56,7 +56,8 @@ class Key:
             return f"{'>' if self.lo_open else '≥'} {_num(self.lo)}{u}"
         if self.hi is not None:
             return f"{'<' if self.hi_open else '≤'} {_num(self.hi)}{u}"
-        return {"bool": "true or false", "str": "a string", "points": "a list of [r, z] pairs"}.get(
+        return {"bool": "true or false", "str": "a string", "points": "a list of [r, z] pairs",
+                "locations": "a list of [r, z] pairs (may be empty)"}.get(
             self.kind, f"a {self.kind}"
         )
 
@@ -375,6 +376,10 @@ OUTPUT = Section(
         C("station_coordinate", ("z", "s"), "z", "z: stations are heights; s: wall arclengths "
           "from the outlet edge."),
         F("history_rate", 200.0, "Hz", "Sampling rate of time histories.", **POS),
+        Key("points", "locations", (), "m", "Interior points [r, z], fixed in space, whose stress (the mean of "
+            "the cell containing each, as the thesis' one-point elements report it) is written to "
+            "point_history.csv at the history rate (the thesis' Figs. 4-16 to 4-18); [] = none.",
+            example=[[0.3, 0.66], [0.6, 1.32]]),
         F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX, and the snapshots "
           "`silo report` draws); 0 = no field output at all (the field stream is not built).", **NONNEG),
     ),

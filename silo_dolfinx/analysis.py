@@ -109,7 +109,8 @@ def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float |
                               cutoff: float = LOW_CUTOFF) -> tuple[float, float]:
     """(RMS, dominant frequency in Hz) of the part of a history below ``cutoff``.
 
-    The window [t_start, t_end] is resampled uniformly, its mean removed, and the result
+    The window [t_start, t_end] is resampled uniformly, its mean and linear trend removed (over
+    a whole discharge the pressure drains: a trend, not a fluctuation), and the result
     low-pass filtered by a 4th-order Butterworth filter run forwards and backwards (zero
     phase: |H|² = 1/(1 + (f/f_c)⁸), −6 dB at the cutoff; 0.5 Hz passes at 0.996, 0.7 Hz at
     0.946, a 5 Hz wave under a 1 Hz cutoff is attenuated by ~10⁻⁵·⁶). The RMS is of the filtered signal away from the record's
@@ -129,7 +130,7 @@ def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float |
     if t.size < 16:
         raise ValueError("need at least 16 samples for the low-frequency fluctuation")
     tu = np.linspace(t[0], t[-1], t.size)
-    xu = np.interp(tu, t, x) - np.mean(x)
+    xu = sps.detrend(np.interp(tu, t, x), type="linear")
     fs = (t.size - 1) / (t[-1] - t[0])
     sos = sps.butter(4, cutoff, btype="low", fs=fs, output="sos")
     low = sps.sosfiltfilt(sos, xu, padlen=min(t.size - 1, int(3 * fs / cutoff)))

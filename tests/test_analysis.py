@@ -128,7 +128,9 @@ def test_low_frequency_fluctuation_of_a_known_signal():
     300/√2 = 212.1 within 2 % (the filter passes 0.4 Hz at |H|² = 0.9993; the RMS is taken over
     the 16 s inside the filter's end effects, 6.4 periods, where the mean of sin² may differ from
     ½ by up to 1/(4π f T) = 1.2 %) and its frequency is 0.4 Hz within one bin
-    (0.05 Hz); the 5.2 Hz wave alone gives < 0.1 % of its amplitude (attenuated ~10⁻⁵·⁸)."""
+    (0.05 Hz); the 5.2 Hz wave alone gives < 1 % of its amplitude: the filter attenuates it by
+    ~10⁻⁵·⁸, but the linear trend fitted to 104 periods of it (removed with the record's drain)
+    is itself slow, of order A/(π·104) = 0.6 Pa."""
     rate = 200.0
     t = np.arange(0.0, 20.0, 1.0 / rate)
     low = 300.0 * np.sin(2 * math.pi * 0.4 * t)
@@ -136,7 +138,7 @@ def test_low_frequency_fluctuation_of_a_known_signal():
     assert rms == pytest.approx(300.0 / math.sqrt(2.0), rel=0.02)
     assert abs(f - 0.4) < 1.0 / 20.0
     rms_wave, _ = analysis.low_frequency_fluctuation(t, 8000.0 + 200.0 * np.sin(2 * math.pi * 5.2 * t))
-    assert rms_wave < 1e-3 * 200.0
+    assert rms_wave < 1e-2 * 200.0
 
 
 def test_mobilised_friction_and_slip_fraction():

@@ -120,7 +120,8 @@ WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what mak
                         "per station, over the discharge.", (
     C("station", "-", "station index"), C("z", "m", "mean height of the station"),
     C("p_mean", "Pa", "mean p_n over the discharge"),
-    C("low_rms", "Pa", "RMS of p_n below 1 Hz (window mean removed; zero-phase 4th-order Butterworth)"),
+    C("low_rms", "Pa", "RMS of p_n below 1 Hz (window mean and linear trend removed; zero-phase 4th-order "
+      "Butterworth)"),
     C("low_frequency", "Hz", "dominant frequency of that < 1 Hz part"),
     C("wave_frequency", "Hz", "largest spectral peak of p_n above 1 Hz (the stress wave, eq. 4-12)"),
     C("mobilised_friction", "-", "mean |p_s|/p_n while loaded"),

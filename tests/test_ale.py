@@ -290,13 +290,16 @@ def test_discharge_keeps_every_cell_valid_and_the_boundary_rules(ale_run):
 
 def test_lagrangian_mesh_degrades_where_ale_does_not(ale_run, shared_tmp, comm):
     """Fig. 3-18 analogue: over the same discharge the Lagrangian critical-element aspect ratio
-    grows well past the ALE one (thesis: 7 at a 25 mm drop, ALE ~constant)."""
+    grows well past the ALE one (thesis: 7 at a 25 mm drop, ALE ~constant). The Lagrangian
+    run covers the first 0.3 s (its aspect ratio is 14.6× the initial one by 0.1 s, 30× by
+    0.3 s; run to 1.5 s it spends 50 s collapsing, Δt → 1e-10 s, before the guard stops it at
+    0.82 s): the comparison is over the time both runs cover."""
     from silo_dolfinx.simulation import run
 
     out_ale, _ = ale_run
     out = shared_tmp / "lag"
     try:
-        run(_ch3_scene(False, 1.5), out, comm, progress_every=1e9)
+        run(_ch3_scene(False, 0.3), out, comm, progress_every=1e9)
     except Exception:  # the Lagrangian run may die of its distortion: that is the point
         pass
     comm.barrier()

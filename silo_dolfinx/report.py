@@ -332,8 +332,11 @@ class Report:
             self.numbers.append((f"discharge overpressure, first {min(10.0, t1 - t0):g} s (max, where)",
                                  f"{r[k]:.3g} at z = {z[k]:.2f} m; above filling at {np.sum(r > 1)}/{r.size} stations"))
 
+    START_UP = 2.0  # s after opening left out of the dynamics (the thesis' flow is steady after ≈ 2 s)
+
     def wall_dynamics(self) -> None:
-        """Why the pressure pulses, per station over the discharge: the < 1 Hz fluctuation
+        """Why the pressure pulses, per station over the discharge after its start-up
+        (``START_UP`` s, when the discharge is at least twice as long): the < 1 Hz fluctuation
         (RMS, frequency), the stress-wave peak, the mobilised friction and the slip fraction
         (wall_dynamics.csv); windowed spectra (Fig. 4-12) and the mobilised friction (Figs.
         4-13/4-14) at the station nearest a quarter of the fill height (the thesis' point e)."""
@@ -345,7 +348,8 @@ class Report:
         if d is None:
             self.missing.append("wall dynamics (needs a discharge and wall_history.csv)")
             return
-        h, t0, t1 = d
+        h, t_open, t1 = d
+        t0 = t_open + self.START_UP if t1 - t_open >= 2 * self.START_UP else t_open
         rows = []
         for k in np.unique(h["station"]):
             sel = (h["station"] == k) & (h["t"] >= t0) & (h["t"] <= t1)
@@ -375,7 +379,8 @@ class Report:
         spectra = analysis.windowed_spectra(t, p, t0, span, 6)
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.5))
         for i, sp in enumerate(spectra):
-            a1.plot(sp.frequency, sp.amplitude, lw=0.8, label=f"{t0 + i * span - t0:.3g}–{t0 + (i + 1) * span - t0:.3g} s")
+            a1.plot(sp.frequency, sp.amplitude, lw=0.8,
+                    label=f"{t0 + i * span - t_open:.3g}–{t0 + (i + 1) * span - t_open:.3g} s")
         if self.scene is not None:
             m = self.scene.material
             f4 = theory.longitudinal_frequency(m.youngs_modulus, m.poisson_ratio, m.density, hf)
@@ -384,7 +389,7 @@ class Report:
         a1.set_xlabel("frequency (Hz)")
         a1.set_ylabel("amplitude of p_n (Pa)")
         a1.legend(fontsize=6, title="after opening", title_fontsize=7)
-        a2.plot(t - t0, analysis.mobilised_friction(p, h["p_s"][sel]), "k-", lw=0.6)
+        a2.plot(t - t_open, analysis.mobilised_friction(p, h["p_s"][sel]), "k-", lw=0.6)
         if self.scene is not None and self.scene.wall.friction == "coulomb":
             a2.axhline(self.scene.wall.mu, color="r", ls="--", lw=1, label=f"μ = {self.scene.wall.mu:g}")
             a2.legend(fontsize=7)

@@ -117,7 +117,8 @@ DISCHARGE_PRESSURES = CsvFile("discharge_pressures.csv", "Written by `silo repor
 ))
 
 WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what makes the discharge pressure pulse, "
-                        "per station, over the discharge.", (
+                        "per station, over the discharge after its first 2 s (the start-up; all of it if it "
+                        "is shorter than 4 s).", (
     C("station", "-", "station index"), C("z", "m", "mean height of the station"),
     C("p_mean", "Pa", "mean p_n over the discharge"),
     C("low_rms", "Pa", "RMS of p_n below 1 Hz (window mean and linear trend removed; zero-phase 4th-order "

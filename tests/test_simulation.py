@@ -181,3 +181,30 @@ def test_point_histories_are_the_stress_of_the_cell_holding_the_point(shared_tmp
         i = int(np.argmin(np.abs(sub - areas)))
         assert h["stress_zz"][row][0] == pytest.approx(float(snap["cell_stress_zz"][i]), rel=1e-12)
         assert abs(h["stress_zz"][row][0] + 1000.0 * 9.81 * (0.6 - z)) < 1000.0 * 9.81 * 0.05
+
+
+def test_a_short_discharge_through_the_dynamic_pressure_report(shared_tmp, comm):
+    """A coarse K0 + free-discharge run (serial or 2 ranks) through the report's dynamic parts:
+    every station gets a row; Coulomb's law bounds the mobilised friction by μ = 0.3 (to
+    round-off: the kinematic contact caps the shear at μ N exactly); the discharge-mean table
+    has a row per station with a finite overpressure where the fill loaded the wall."""
+    from silo_dolfinx.output import read_csv
+    from silo_dolfinx.report import Report
+
+    sc = small_scene(fill={"method": "k0"}, store={"duration": 0.05}, discharge={"mode": "free", "duration": 0.5},
+                     output={"history_rate": 200.0, "field_interval": 0.0, "stations": [0.1, 0.3, 0.5]})
+    out = shared_tmp / "dyn"
+    run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    if comm.rank == 0:
+        r = Report(out)
+        r.wall_dynamics()
+        r.discharge_pressures()
+        assert not r.missing, r.missing
+        dyn = read_csv(out / "wall_dynamics.csv")
+        assert dyn["station"].size == 3
+        assert np.all(dyn["mobilised_friction"] <= 0.3 * (1 + 1e-9))
+        assert np.all((dyn["slip_fraction"] >= 0.0) & (dyn["slip_fraction"] <= 1.0))
+        dp = read_csv(out / "discharge_pressures.csv")
+        assert dp["station"].size == 3 and np.all(np.isfinite(dp["overpressure_2s"][dp["p_fill"] > 0]))
+    comm.barrier()

@@ -18,7 +18,8 @@
 # writes the thesis-vs-us table to `results/ch4_study/table.md` (and, for the full runs, to
 # docs/validation/ch4.md).
 #
-#     mpirun -n 2 python demos/hopper_ch4_study.py --quick   # coarse mesh, 6 s discharges (~10 min)
+#     mpirun -n 2 python demos/hopper_ch4_study.py --quick   # coarse mesh, 6 s discharges (~6 min)
+#     ... --quick --discharge 20                            # the same with 20 s discharges (~20 min)
 #     mpirun -n 2 python demos/hopper_ch4_study.py           # the scenes as given (hours)
 #     ... --reuse                                           # tables from the results already there
 
@@ -41,10 +42,13 @@ comm = MPI.COMM_WORLD
 ap = argparse.ArgumentParser()
 ap.add_argument("--quick", action="store_true", help="coarse mesh (h 0.04 m), 5 layers in 5 s, 6 s discharges")
 ap.add_argument("--reuse", action="store_true", help="measure the results already in results/ch4_study")
+ap.add_argument("--discharge", type=float, help="with --quick: seconds of discharge (default 6)")
 args, _ = ap.parse_known_args()
 OUT = Path("results") / ("ch4_study_quick" if args.quick else "ch4_study")
+if args.quick and args.discharge:
+    OUT = OUT.with_name(f"ch4_study_quick_{args.discharge:g}s")
 QUICK = ["geometry.element_size=0.04", "fill.layers=5", "fill.duration=5.0", "store.duration=1.0",
-         "discharge.duration=6.0"] if args.quick else []
+         f"discharge.duration={args.discharge or 6.0}"] if args.quick else []
 
 
 def say(*a):

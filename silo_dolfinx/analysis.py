@@ -25,6 +25,20 @@ def time_average(t, values, t_start: float, t_end: float):
     return np.asarray(values, float)[sel].mean(axis=0)
 
 
+def _window(t, x, t_start, t_end, min_samples: int, what: str):
+    """The samples with t_start ≤ t ≤ t_end (either bound optional), at least min_samples."""
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    sel = np.ones(t.size, bool)
+    if t_start is not None:
+        sel &= t >= t_start
+    if t_end is not None:
+        sel &= t <= t_end
+    if sel.sum() < min_samples:
+        raise ValueError(f"need at least {min_samples} samples for {what}")
+    return t[sel], x[sel]
+
+
 @dataclass
 class Spectrum:
     frequency: np.ndarray  # Hz
@@ -61,16 +75,7 @@ def spectrum(t, x, *, detrend: str = "linear", window: str = "hann", t_start: fl
     resolution is 1/T for a record of length T."""
     from scipy import signal as sps
 
-    t = np.asarray(t, float)
-    x = np.asarray(x, float)
-    sel = np.ones(t.size, bool)
-    if t_start is not None:
-        sel &= t >= t_start
-    if t_end is not None:
-        sel &= t <= t_end
-    t, x = t[sel], x[sel]
-    if t.size < 8:
-        raise ValueError("need at least 8 samples for a spectrum")
+    t, x = _window(t, x, t_start, t_end, 8, "a spectrum")
     dt = np.diff(t)
     if np.max(np.abs(dt - dt.mean())) > 1e-3 * dt.mean():
         # resample onto a uniform grid (histories are written at a fixed rate, but a stage
@@ -119,16 +124,7 @@ def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float |
     above one bin (resolution 1/T: a window of T seconds resolves nothing slower than 1/T)."""
     from scipy import signal as sps
 
-    t = np.asarray(t, float)
-    x = np.asarray(x, float)
-    sel = np.ones(t.size, bool)
-    if t_start is not None:
-        sel &= t >= t_start
-    if t_end is not None:
-        sel &= t <= t_end
-    t, x = t[sel], x[sel]
-    if t.size < 16:
-        raise ValueError("need at least 16 samples for the low-frequency fluctuation")
+    t, x = _window(t, x, t_start, t_end, 16, "the low-frequency fluctuation")
     tu = np.linspace(t[0], t[-1], t.size)
     xu = sps.detrend(np.interp(tu, t, x), type="linear")
     fs = (t.size - 1) / (t[-1] - t[0])

@@ -30,6 +30,7 @@ cut-off is never evaluated.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numba
@@ -60,9 +61,10 @@ class DruckerPrager(Material):
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
         return float(_update(sig, deps, state_old["eqps"], self.parameters, sig_new, state_new["eqps"], dV))
 
-    @property
+    @functools.cached_property
     def parameters(self) -> tuple[float, ...]:
-        """The law's constants as its kernel reads them (K, G, tan β, tan ψ, d, c_nc, ε̄_p,c, T)."""
+        """The law's constants as its kernel reads them (K, G, tan β, tan ψ, d, c_nc, ε̄_p,c, T);
+        built once, at the first update (after any subclass has set its constants)."""
         return tuple(map(float, (self.K, self.G, self.tan_beta, self.tan_psi, self.cohesion, self.noncoaxial,
                                  self.eqps_critical, self.tension_cutoff)))
 

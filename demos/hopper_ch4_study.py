@@ -42,13 +42,15 @@ comm = MPI.COMM_WORLD
 ap = argparse.ArgumentParser()
 ap.add_argument("--quick", action="store_true", help="coarse mesh (h 0.04 m), 5 layers in 5 s, 6 s discharges")
 ap.add_argument("--reuse", action="store_true", help="measure the results already in results/ch4_study")
-ap.add_argument("--discharge", type=float, help="with --quick: seconds of discharge (default 6)")
+ap.add_argument("--discharge", type=float, help="seconds of discharge (default: 6 with --quick, the scene's otherwise)")
+ap.add_argument("--cases", help="comma-separated subset of the cases to run (default: all)")
 args, _ = ap.parse_known_args()
 OUT = Path("results") / ("ch4_study_quick" if args.quick else "ch4_study")
-if args.quick and args.discharge:
-    OUT = OUT.with_name(f"ch4_study_quick_{args.discharge:g}s")
-QUICK = ["geometry.element_size=0.04", "fill.layers=5", "fill.duration=5.0", "store.duration=1.0",
-         f"discharge.duration={args.discharge or 6.0}"] if args.quick else []
+if args.discharge:
+    OUT = OUT.with_name(f"{OUT.name}_{args.discharge:g}s")
+OVERRIDES = (["geometry.element_size=0.04", "fill.layers=5", "fill.duration=5.0", "store.duration=1.0",
+              f"discharge.duration={args.discharge or 6.0}"] if args.quick else
+             [f"discharge.duration={args.discharge}"] if args.discharge else [])
 
 
 def say(*a):
@@ -66,13 +68,19 @@ CASES = {"reference": "hopper_ch4", "stiff": "hopper_ch4_stiff", "smooth": "hopp
          "u0": "hopper_ch4_controlled_u0", "u0/2": "hopper_ch4_controlled_u0_2",
          "u0/4": "hopper_ch4_controlled_u0_4", "u0/10": "hopper_ch4_controlled_u0_10",
          "u0/100": "hopper_ch4_controlled_u0_100"}
+RUN = args.cases.split(",") if args.cases else list(CASES)
+if unknown := set(RUN) - set(CASES):
+    raise SystemExit(f"--cases: unknown {sorted(unknown)}; choose from {', '.join(CASES)}")
 for case, name in CASES.items():
     folder = OUT / name
-    if args.reuse and (folder / "summary.json").is_file():
+    if case not in RUN or args.reuse and (folder / "summary.json").is_file():
         continue
     say(f"--- {case}: {name}")
-    run(load_scene(HERE / "scenes" / f"{name}.toml", QUICK), folder, comm)
+    run(load_scene(HERE / "scenes" / f"{name}.toml", OVERRIDES), folder, comm)
     comm.barrier()
+if missing := [c for c, n in CASES.items() if not (OUT / n / "summary.json").is_file()]:
+    say(f"the table needs every case; not yet in {OUT}: {', '.join(missing)} (run them with --cases)")
+    raise SystemExit(0)
 # -
 
 # ## Measuring what the thesis shows

@@ -183,6 +183,52 @@ def test_point_histories_are_the_stress_of_the_cell_holding_the_point(shared_tmp
         assert abs(h["stress_zz"][row][0] + 1000.0 * 9.81 * (0.6 - z)) < 1000.0 * 9.81 * 0.05
 
 
+@pytest.mark.parametrize("ale", [False, True], ids=["lagrangian", "ale"])
+def test_material_points_fall_freely_with_a_frictionless_column(shared_tmp, comm, ale):
+    """Material points (output.point_motion = "material") of an elastic column on a smooth
+    wall whose whole base opens: the solid falls freely, so each point is at
+    z0 − g (t − t_open)²/2 and keeps its radius, with or without ALE remaps relocating it.
+    The column also springs back from its K0 compression: a point's offset from free fall is
+    bounded by the static elongation ρ g H²/(2 M) times the dynamic factor 2, ρ g H²/M =
+    15 mm here, against a 440 mm fall; its radius by the lateral strain released, at most
+    r0 ρ g H/E (the radial stress k0 ρ g H < ρ g H over the modulus; 2–4 mm here).
+    Before the opening the points are fixed: the first rows are at the given positions."""
+    from silo_dolfinx import theory
+    from silo_dolfinx.output import read_csv
+
+    H, rho, E, nu, g = 1.0, 1000.0, 5e5, 0.3, 9.81
+    pts = [[0.1, 0.8], [0.2, 0.55]]
+    sc = load_scene(scene_dict(
+        {"shape": "column", "base_radius": 0.3, "height": H, "half_angle": 0.0, "element_size": 0.05},
+        material={"model": "elastic", "density": rho, "youngs_modulus": E, "poisson_ratio": nu},
+        fill={"method": "k0"}, store={"duration": 0.01}, discharge={"mode": "free", "duration": 0.3},
+        ale={"enabled": ale, "tracer_rows": 0},
+        output={"history_rate": 100.0, "field_interval": 0.0, "stations": [], "points": pts,
+                "point_motion": "material"}))
+    out = shared_tmp / f"material_points_{ale}"
+    s = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    assert ("ale" in s["effects"]) == ale
+    if ale:
+        assert s["stages"][-1]["ale"]["remaps"] > 10
+    h = read_csv(out / "point_history.csv")
+    t_open = s["stages"][-1]["t_start"]
+    M = rho * theory.confined_wave_speed(E, nu, rho) ** 2
+    tol = rho * g * H**2 / M
+    assert 0.01 < tol < 0.02
+    for k, (r0, z0) in enumerate(pts):
+        row = h["point"] == k
+        t, r, z = h["t"][row], h["r"][row], h["z"][row]
+        before = t <= t_open
+        assert np.all(r[before] == r0) and np.all(z[before] == z0)
+        after = t > t_open
+        fall = z0 - 0.5 * g * (t[after] - t_open) ** 2
+        assert np.max(np.abs(z[after] - fall)) < tol, k
+        assert np.max(np.abs(r[after] - r0)) < r0 * rho * g * H / E, k
+        assert fall[-1] < z0 - 0.4  # it did fall
+        assert np.all(np.isfinite(h["stress_zz"][row]))
+
+
 def test_a_short_discharge_through_the_dynamic_pressure_report(shared_tmp, comm):
     """A coarse K0 + free-discharge run (serial or 2 ranks) through the report's dynamic parts:
     every station gets a row; Coulomb's law bounds the mobilised friction by μ = 0.3 (to

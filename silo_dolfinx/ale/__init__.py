@@ -87,7 +87,13 @@ class ALE:
         self._weights = np.ascontiguousarray(s.forms.weights, dtype=np.float64)
         self.stats = ALEStats()
         self.tracers = Tracers(self, a.tracer_rows, a.tracer_columns) if a.tracer_rows * a.tracer_columns > 0 else None
+        self.followers: list[Tracers] = []  # material points of the outputs (``follow``)
         self._steps0 = s.steps
+
+    def follow(self, points: np.ndarray) -> Tracers:
+        """Material points seeded now at ``points`` and carried through every remap."""
+        self.followers.append(Tracers(self, 0, 0, points))
+        return self.followers[-1]
 
     def due(self) -> bool:
         return (self.solver.steps - self._steps0) % self.frequency == 0
@@ -143,8 +149,8 @@ class ALE:
             s.v[s.node_dof] = v
         deferred, elastic = s.after_remap(self._dV, self._dsig if s.steps > 0 else None)
         self.model.after_remap()
-        if self.tracers is not None:
-            self.tracers.relocate(xL, xS)
+        for tr in ([self.tracers] if self.tracers is not None else []) + self.followers:
+            tr.relocate(xL, xS)
         out_el = float(np.dot(rep.outflow_cells[self._outlet_cells], elastic_density))
         out = rep.outflow_kinetic + out_el
         s.energy.outflow += out

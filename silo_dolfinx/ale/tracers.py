@@ -10,7 +10,8 @@ a ghost cell moves to the rank owning it; one that crosses the outlet is dischar
 time recorded); one pushed against a wall stays on the wall.
 
 Seeded at the start of the discharge as ``rows`` horizontal lines of ``per_row`` points,
-the classic coloured-layer picture of flow patterns.
+the classic coloured-layer picture of flow patterns; or at given points (``points``: the
+material-following interior points of ``output.points``, row −1).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ FOUND, GHOST, DISCHARGED = 0, 1, 2
 class Tracers:
     """Material points on the owned cells of this rank."""
 
-    def __init__(self, ale, rows: int, per_row: int):
+    def __init__(self, ale, rows: int, per_row: int, points: np.ndarray | None = None):
         model = ale.model
         mesh = ale.mesh
         self.comm = mesh.comm
@@ -60,6 +61,8 @@ class Tracers:
                 pts.append(((j + 0.5) / per_row * rw, z))
                 ids.append(i * per_row + j)
                 rowid.append(i)
+        if points is not None:
+            pts, ids, rowid = list(points), list(range(len(points))), [-1] * len(points)
         pts = np.array(pts, float).reshape(-1, 2)
         cell, xi = _locate_brute(x, self.cn_tensor, self.n_owned, pts)
         # a point on a partition boundary is found by both ranks: the lower rank keeps it
@@ -81,9 +84,7 @@ class Tracers:
     def positions(self, x: np.ndarray | None = None) -> np.ndarray:
         """Current positions of this rank's tracers."""
         x = np.ascontiguousarray(self.solver.mesh.geometry.x[:, :2]) if x is None else x
-        out = np.empty((self.cell.size, 2))
-        _map(x, self.cn_tensor, self.cell, self.xi, out)
-        return out
+        return map_points(x, self.cn_tensor, self.cell, self.xi)
 
     def relocate(self, xL: np.ndarray, xS: np.ndarray) -> None:
         """After a remap from positions xL to xS: find every tracer on the new mesh."""
@@ -261,3 +262,10 @@ def _locate_brute(x, cn, n_cells, pts):
 
 
 locate_points = _locate_brute  # public name: cell and (ξ, η) of points among the first n cells
+
+
+def map_points(x, cn, cell, xi) -> np.ndarray:
+    """Positions of the points at reference coordinates xi of the cells ``cell``."""
+    out = np.empty((cell.size, 2))
+    _map(x, cn, cell, xi, out)
+    return out

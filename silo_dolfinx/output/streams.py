@@ -131,50 +131,97 @@ class WallHistory:
 
 
 class PointHistory:
-    """point_history.csv: stress at interior points fixed in space (output.points), each the
-    mean of the cell that contains it now (the mesh moves: located afresh at every sample)."""
+    """point_history.csv: stress at interior points (output.points), each the mean of the cell
+    that holds it. Fixed points (``output.point_motion = "fixed"``, the thesis') are located
+    afresh at every sample, the mesh moving under them. Material points (``"material"``) stay
+    where they are until the outlet opens and are then carried with the solid: between remaps
+    a point keeps its cell and reference coordinates (the mesh moves with the material) and
+    ALE relocates it at every remap as it does its tracers; one that leaves through the
+    outlet has no value from then on."""
 
     def __init__(self, model, results: Results):
         from silo_dolfinx.geometry.cells import tensor_nodes
 
         self.model = model
         self.points = np.asarray(model.scene.output.points, float).reshape(-1, 2)
+        self.material = model.scene.output.point_motion == "material"
+        self.follower = None  # the material points once the discharge has started
         s = model.solver
         self.cn = tensor_nodes(model.sm.mesh, s.n_cells_owned)
         self.csv = results.table(schema.POINT_HISTORY)
         self._x = np.zeros((model.sm.mesh.geometry.x.shape[0], 2))
 
-    def values(self) -> np.ndarray:
-        """(n_points, 4) cell-mean stress at the points, NaN where no active cell holds one
-        (collective: the lowest rank that finds a point supplies it)."""
+    def _cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """(owned cell or −1, position) of every point on this rank."""
         from silo_dolfinx.ale.tracers import locate_points
 
+        if self.follower is None:
+            return locate_points(self._x, self.cn, self.model.solver.n_cells_owned, self.points)[0], self.points
+        f = self.follower
+        cell, pos = np.full(self.points.shape[0], -1, np.int64), np.full(self.points.shape, np.nan)
+        cell[f.id], pos[f.id] = f.cell, f.positions(self._x)
+        return cell, pos
+
+    def values(self) -> np.ndarray:
+        """(n_points, 6): position and cell-mean stress of every point, NaN where no active cell
+        holds one (collective: the lowest rank that finds a point supplies it)."""
         s, comm = self.model.solver, self.model.sm.comm
         self._x[:] = self.model.sm.mesh.geometry.x[:, :2]
-        cell, _ = locate_points(self._x, self.cn, s.n_cells_owned, self.points)
+        cell, pos = self._cells()
         active = s.active_cells
-        pos = np.minimum(np.searchsorted(active, cell), max(active.size - 1, 0))
-        found = (cell >= 0) & (active[pos] == cell) if active.size else np.zeros(cell.size, bool)
+        at = np.minimum(np.searchsorted(active, cell), max(active.size - 1, 0))
+        found = (cell >= 0) & (active[at] == cell) if active.size else np.zeros(cell.size, bool)
         owner = np.where(found, comm.rank, comm.size).astype(np.int64)
         comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
         mine = found & (owner == comm.rank)
-        sig = s.sig.reshape(-1, s.nq, 4)[pos[mine]]
-        w = s.dV.reshape(-1, s.nq)[pos[mine]]
-        out = np.zeros((self.points.shape[0], 4))
-        out[mine] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
+        sig = s.sig.reshape(-1, s.nq, 4)[at[mine]]
+        w = s.dV.reshape(-1, s.nq)[at[mine]]
+        out = np.zeros((self.points.shape[0], 6))
+        out[mine, :2] = pos[mine]
+        out[mine, 2:] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
         comm.Allreduce(MPI.IN_PLACE, out, op=MPI.SUM)
         out[owner == comm.size] = np.nan
+        if self.follower is None:
+            out[:, :2] = self.points  # a fixed point has its position whether or not a cell holds it
         return out
 
     def sample(self, stage: str) -> None:
         from silo_dolfinx.invariants import p_q
 
-        sig = self.values()
-        p, q = p_q(sig)
+        if self.material and self.follower is None and stage == "discharge":
+            self.follower = self._seed()
+        v = self.values()
+        p, q = p_q(v[:, 2:])
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(p > 1e-9, q / p, np.nan)
         t = self.model.solver.t
-        self.csv.write(*[[t, k, *self.points[k], *sig[k], p[k], q[k], ratio[k]] for k in range(len(self.points))])
+        self.csv.write(*[[t, k, *v[k], p[k], q[k], ratio[k]] for k in range(len(self.points))])
+
+    def _seed(self):
+        """The material points, seeded where the fixed points are now."""
+        ale = self.model.ale
+        if ale is not None:
+            return ale.follow(self.points)
+        self._x[:] = self.model.sm.mesh.geometry.x[:, :2]
+        return _Pinned(self._x, self.cn, self.model.solver.n_cells_owned, self.points, self.model.sm.comm)
+
+
+class _Pinned:
+    """Material points of a Lagrangian mesh: each keeps its cell and (ξ, η) for good."""
+
+    def __init__(self, x, cn, n_owned: int, points, comm):
+        from silo_dolfinx.ale.tracers import locate_points
+
+        cell, xi = locate_points(x, cn, n_owned, points)
+        owner = np.where(cell >= 0, comm.rank, comm.size).astype(np.int64)
+        comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
+        keep = (cell >= 0) & (owner == comm.rank)
+        self.id, self.cell, self.xi, self.cn = np.nonzero(keep)[0], cell[keep], xi[keep], cn
+
+    def positions(self, x) -> np.ndarray:
+        from silo_dolfinx.ale.tracers import map_points
+
+        return map_points(x, self.cn, self.cell, self.xi)
 
 
 class FieldOutput:

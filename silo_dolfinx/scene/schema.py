@@ -376,10 +376,13 @@ OUTPUT = Section(
         C("station_coordinate", ("z", "s"), "z", "z: stations are heights; s: wall arclengths "
           "from the outlet edge."),
         F("history_rate", 200.0, "Hz", "Sampling rate of time histories.", **POS),
-        Key("points", "locations", (), "m", "Interior points [r, z], fixed in space, whose stress (the mean of "
-            "the cell containing each, as the thesis' one-point elements report it) is written to "
+        Key("points", "locations", (), "m", "Interior points [r, z] whose stress (the mean of the cell "
+            "containing each, as the thesis' one-point elements report it) is written to "
             "point_history.csv at the history rate (the thesis' Figs. 4-16 to 4-18); [] = none.",
             example=[[0.3, 0.66], [0.6, 1.32]]),
+        C("point_motion", ("fixed", "material"), "fixed", "fixed: the points stay where they are (the "
+          "thesis'); material: they stay until the outlet opens, then move with the solid (carried "
+          "through ALE remaps like tracers; a point that leaves through the outlet has no values after)."),
         F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX, and the snapshots "
           "`silo report` draws); 0 = no field output at all (the field stream is not built).", **NONNEG),
     ),

@@ -43,6 +43,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="seconds between progress lines on rank 0 (default 5)")
     sp = sub.add_parser("report", help="figures and report.md from a results folder")
     sp.add_argument("folder", help="results folder written by silo run")
+    sp.add_argument("--times", type=float, nargs="+", metavar="T",
+                    help="simulated times (s) of the stress-field figure (default: end of filling, opening, "
+                         "2 s into the discharge, its end)")
     sp = sub.add_parser("shear", help="thesis ch. 8 simple shear, Table 8-1, coaxial vs non-coaxial")
     sp.add_argument("--out", required=True, help="folder for CSV and PNG files")
     sp.add_argument("--cone", "--matching", dest="cone", default="plane_strain",
@@ -172,7 +175,7 @@ def _report(args) -> int:
     from silo_dolfinx.report import make_report
 
     try:
-        path = make_report(args.folder)
+        path = make_report(args.folder, args.times)
     except FileNotFoundError as e:
         _error(f"error: {e}")
         return 2

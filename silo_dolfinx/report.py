@@ -37,8 +37,9 @@ from silo_dolfinx.output.reader import read_csv, read_summary
 
 
 class Report:
-    def __init__(self, folder: str | Path):
+    def __init__(self, folder: str | Path, times: list[float] | None = None):
         self.folder = Path(folder)
+        self.times = times  # of the stress-field figures (None: the stages' ends, 2 s into the discharge)
         if not self.folder.is_dir():
             raise FileNotFoundError(f"{self.folder}: no such results folder")
         from silo_dolfinx.scene import load_scene
@@ -56,7 +57,8 @@ class Report:
     def _save(self, fig, name: str, caption: str) -> None:
         import matplotlib.pyplot as plt
 
-        fig.tight_layout()
+        if fig.get_layout_engine() is None:
+            fig.tight_layout()
         fig.savefig(self.folder / name, dpi=120)
         plt.close(fig)
         self.figures.append((name, caption))
@@ -554,6 +556,58 @@ class Report:
                              "none (mass flow at every height)" if np.isnan(et) and np.all(np.isnan(r_fcb)) else
                              f"{et:.3g} m"))
 
+    def _snapshot_times(self) -> list[float]:
+        """The default times of the stress-field figures: the end of filling, the opening, 2 s
+        into the discharge and its end (those the run has)."""
+        st = self._stage_times()
+        times = [st[k][1] for k in ("fill", "store") if k in st]
+        if "discharge" in st:
+            t0, t1 = st["discharge"]
+            times += [t for t in (t0 + 2.0, t1) if t <= t1 + 1e-9]
+        return sorted(set(times))
+
+    def stress_fields(self, times: list[float] | None = None) -> None:
+        """q/p (eq. 4-11) and the direction of the major principal stress at chosen times
+        (Figs. 4-5, 4-19; default: the report's ``times``, else the stages' ends and 2 s into the
+        discharge): one panel per time, from the field snapshot nearest each; the share
+        of the fill whose major principal stress is within 45° of the vertical (the active,
+        filling state; discharge turns the hopper's towards the horizontal, passive)."""
+        import matplotlib.pyplot as plt
+        from matplotlib.collections import LineCollection, PolyCollection
+
+        snaps = sorted((self.folder / "fields").glob("snapshot_*.npz"))
+        if not snaps or "cell_stress_rr" not in np.load(snaps[0]):
+            self.missing.append("stress fields (no field snapshot with the stress components)")
+            return
+        t_snap = np.array([float(np.load(f)["t"]) for f in snaps])
+        times = times or self.times or self._snapshot_times()
+        chosen = sorted({int(np.argmin(np.abs(t_snap - t))) for t in times})
+        fig, axes = plt.subplots(1, len(chosen), figsize=(3.4 * len(chosen) + 1, 6), squeeze=False, sharey=True,
+                                 layout="constrained")
+        for ax, i in zip(axes[0], chosen):
+            d = np.load(snaps[i])
+            c = d["corners"]
+            sig = np.column_stack([d[f"cell_stress_{k}"] for k in ("rr", "zz", "tt", "rz")])
+            poly = PolyCollection(c, array=analysis.stress_ratio(sig), cmap="viridis", clim=(0.0, 1.5))
+            ax.add_collection(poly)
+            angle = np.radians(analysis.stress_orientation(sig))
+            area = analysis.cell_areas(c)
+            ctr = c.mean(axis=1)
+            pick = _spread(ctr, 0.04 * np.ptp(ctr[:, 1]))
+            half = 0.5 * np.sqrt(area[pick])[:, None] * np.column_stack([np.cos(angle[pick]), np.sin(angle[pick])])
+            ax.add_collection(LineCollection(np.stack([ctr[pick] - half, ctr[pick] + half], axis=1), colors="w", lw=0.8))
+            active = float(np.sum(area * (np.abs(angle) > np.pi / 4)) / np.sum(area))
+            ax.set_title(f"t = {t_snap[i]:.3g} s\nactive (σ1 within 45° of vertical): {100 * active:.0f} %", fontsize=8)
+            self.numbers.append((f"t = {t_snap[i]:.3g} s: share of the fill in the active state (σ1 within 45° of "
+                                 "vertical)", f"{100 * active:.0f} %"))
+            ax.set_aspect("equal")
+            ax.autoscale_view()
+            ax.set_xlabel("r (m)")
+        axes[0][0].set_ylabel("z (m)")
+        fig.colorbar(poly, ax=axes[0].tolist(), shrink=0.7, label="q/p")
+        self._save(fig, "stress_fields.png", "Stress ratio q/p (colour, eq. 4-11) and the major principal stress "
+                   "direction (white; Figs. 4-5, 4-19) at " + ", ".join(f"{t_snap[i]:.3g}" for i in chosen) + " s.")
+
     def renders(self) -> None:
         snap = self._snapshot()
         if snap is None:
@@ -611,7 +665,7 @@ class Report:
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.spectra, self.discharge_pressures,
                      self.wall_dynamics, self.outlet, self.flow_channel,
-                     self.mesh_quality, self.flow_pattern, self.energy, self.renders):
+                     self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields):
             try:
                 part()
             except Exception as e:  # a broken part must not lose the others
@@ -641,9 +695,18 @@ class Report:
         return path
 
 
-def make_report(folder: str | Path) -> Path:
-    """Write every figure the folder's files allow and report.md; returns its path."""
-    return Report(folder).write()
+def _spread(points: np.ndarray, spacing: float) -> np.ndarray:
+    """Indices of one point per ``spacing``-sized square (the first found): an even subsample
+    for arrows on a graded mesh."""
+    key = np.floor(points / spacing).astype(np.int64)
+    _, first = np.unique(key, axis=0, return_index=True)
+    return np.sort(first)
+
+
+def make_report(folder: str | Path, times: list[float] | None = None) -> Path:
+    """Write every figure the folder's files allow and report.md (the stress fields at
+    ``times``, default: see :meth:`Report.stress_fields`); returns its path."""
+    return Report(folder, times).write()
 
 
 if __name__ == "__main__":  # pragma: no cover

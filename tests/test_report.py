@@ -72,8 +72,12 @@ def synthetic(tmp_path):
     R, Z = np.meshgrid(ri, zi)
     xy = np.column_stack([(R * (0.1 + Z * 0.4167)).ravel(), Z.ravel()])
     vz = -np.where(Z.ravel() > 1.0, 1.0, np.clip(1.0 - R.ravel() / 0.6, 0.0, None))
+    # stresses: σ1 vertical (active) in the inner half of every row, horizontal in the outer half
+    inner = np.repeat(np.arange(10) < 5, 20)
+    s_rr, s_zz = np.where(inner, -1000.0, -2000.0), np.where(inner, -2000.0, -1000.0)
     np.savez(d / "fields" / "snapshot_0000.npz", t=30.0, corners=np.array(corners), node_xy=xy,
-             node_velocity=np.column_stack([0 * vz, vz]), cell_q_over_p=np.array(cells_q))
+             node_velocity=np.column_stack([0 * vz, vz]), cell_q_over_p=np.array(cells_q), cell_stress_rr=s_rr,
+             cell_stress_zz=s_zz, cell_stress_tt=s_rr, cell_stress_rz=0 * s_rr)
     return d
 
 
@@ -82,7 +86,7 @@ def test_report_writes_every_figure_and_the_table(synthetic):
     text = path.read_text()
     for name in ("wall_pressure_fill.png", "wall_pressure_store.png", "wall_pressure_discharge.png",
                  "wall_history.png", "spectra.png", "outlet.png", "flow_channel.png", "energy.png",
-                 "field_q_over_p.png", "field_velocity.png"):
+                 "field_q_over_p.png", "field_velocity.png", "stress_fields.png"):
         assert (synthetic / name).is_file() and (synthetic / name).stat().st_size > 5000, name
         assert f"({name})" in text, name
     assert "## Not available" not in text and "## Warnings" not in text  # the summary has none
@@ -93,6 +97,8 @@ def test_report_writes_every_figure_and_the_table(synthetic):
     assert "Beverloo 32.5 kg/s" in text and "eq. 4-12 longitudinal frequency | 5.15 Hz" in text
     assert "| effective transition (FCB meets the wall) |" in text
     assert "| mobilised p_s/p_n, end of discharge" in text and "mean 0.2670" in text
+    # the inner half of each row of cells is active: half the area (rows split evenly in r)
+    assert "| t = 30 s: share of the fill in the active state (σ1 within 45° of vertical) | 50 % |" in text
 
 
 def test_report_on_a_partial_folder(synthetic):

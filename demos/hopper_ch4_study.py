@@ -87,7 +87,7 @@ if missing := [c for c, n in CASES.items() if not (OUT / n / "summary.json").is_
 #
 # `silo report`'s two dynamic-pressure parts do the measuring for every case:
 # `wall_dynamics.csv` (per station over the discharge: the < 1 Hz RMS after removing the mean
-# and trend, its frequency, the largest spectral peak above 1 Hz, the mobilised friction and
+# and trend, its frequency, the largest peak above 1 Hz of the Welch-averaged spectrum, the mobilised friction and
 # the fraction of time in slip) and `discharge_pressures.csv` (eq. 4-9 means over the first
 # 2 s and 10 s after opening against the end of filling).
 
@@ -113,7 +113,9 @@ if comm.rank == 0:
 # ## The table
 #
 # Point e is not dimensioned in the thesis; the station nearest h0/4 = 0.66 m stands in for it.
-# "Wave peak" is the largest spectral peak of p_n above 1 Hz over the discharge.
+# "Wave peak" is the largest peak of p_n above 1 Hz in the Welch average of six half-overlapping
+# windows of the discharge (the wave drifts up as the fill drains: one periodogram of the whole
+# record smears it; see `analysis.averaged_spectrum`).
 
 # +
 if comm.rank == 0:

@@ -359,7 +359,7 @@ class Report:
                 continue
             t, p = h["t"][sel], h["p_n"][sel]
             rms, f_low = analysis.low_frequency_fluctuation(t, p)
-            wave = analysis.spectrum(t, p).peaks(1, min_frequency=analysis.LOW_CUTOFF)
+            wave = analysis.averaged_spectrum(t, p).peaks(1, min_frequency=analysis.LOW_CUTOFF)
             mob = analysis.mobilised_friction(p, h["p_s"][sel])
             rows.append([int(k), float(np.mean(h["z"][sel])), float(np.mean(p)), rms, f_low,
                          float(wave[0]) if wave.size else np.nan,

@@ -123,6 +123,26 @@ def test_windowed_spectra_follow_a_tone_that_changes():
         assert abs(sp.peaks(1, min_frequency=1.0)[0] - (5.0 if i < 3 else 7.0)) < sp.resolution
 
 
+def test_averaged_spectrum_finds_a_drifting_wave_a_single_spectrum_misses():
+    """The fill's wave drifts up as the fill drains (eq. 4-12: f ∝ 1/h). A 100-Pa tone drifting
+    from 5.0 to 6.0 Hz over 30 s (the fill 17 % lower at the end) beside a steady 40-Pa tone at
+    9 Hz: one periodogram of the record (bins of 1/30 Hz) spreads the drifting tone over ~30
+    bins (its largest, 36 Pa) and its largest peak is the steady tone; Welch's average of 5-s
+    windows (0.2-Hz bins, 0.17 Hz of drift in each) keeps it in a bin or two (57 Pa) and finds
+    it within the drift's range. A pure tone on a bin centre shows its amplitude (100 Pa
+    within 1 %: the amplitude scaling)."""
+    rate = 200.0
+    t = np.arange(0.0, 30.0, 1.0 / rate)
+    phase = 2 * math.pi * (5.0 * t + 0.5 * (1.0 / 30.0) * t**2)  # f(t) = 5.0 + t/30
+    x = 4000.0 + 100.0 * np.sin(phase) + 40.0 * np.sin(2 * math.pi * 9.0 * t)
+    assert abs(analysis.spectrum(t, x).peaks(1, min_frequency=1.0)[0] - 9.0) < 0.05
+    avg = analysis.averaged_spectrum(t, x, segments=6)
+    assert abs(avg.resolution - 0.2) < 0.01
+    assert 5.0 <= avg.peaks(1, min_frequency=1.0)[0] <= 6.0
+    tone = analysis.averaged_spectrum(t, 100.0 * np.sin(2 * math.pi * 6.0 * t), segments=6)
+    assert abs(tone.amplitude.max() / 100.0 - 1.0) < 0.01
+
+
 def test_low_frequency_fluctuation_of_a_known_signal():
     """p = 8000 + 300 sin(2π 0.4 t) + 200 sin(2π 5.2 t) over 20 s: the < 1 Hz part has RMS
     300/√2 = 212.1 within 2 % (the filter passes 0.4 Hz at |H|² = 0.9993; the RMS is taken over

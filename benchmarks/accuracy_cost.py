@@ -27,7 +27,12 @@ moves it. So the snapshot and filling tables carry a **floor** row — the refer
 with Δt × 0.99 (time_step_scale 0.792 for the default 0.8) — the deviation an immaterial
 perturbation causes; a knob's deviation below its floor is not resolved by the measure. The
 outlet-edge and free-surface wall nodes (the profile's ends, stress singularities where the
-wall meets the outlet and the top) are left out of S0 with the near-zero pressures.
+wall meets the outlet and the top) are left out of S0 with the near-zero pressures. In the
+lowest fifth of the fill the solid accelerates into the outlet and the wall pressure swings by
+about its own mean (ch. 3 hopper, 0.05–0.5 s after opening, scale 0.01: standard deviation /
+mean 1.5 at z = 0.1 m, out of contact 24 % of the time, and 0.9 at 0.33 m; 0.08 and 0.05 at
+0.66 and 0.99 m): an instant there is a sample of contact chatter, and it dominates S0 over
+the whole wall; a second S0 column leaves that zone out.
 
 Wall-clock is the whole run (meshing excluded), serial, median of ``--repeat`` runs. Mass
 scaling changes the physics it speeds up (inertia): its error column says by how much.
@@ -49,6 +54,7 @@ import silo_dolfinx  # noqa: F401
 HERE = Path(__file__).resolve().parents[1]
 SCENES = HERE / "demos" / "scenes"
 RELEVANT = 0.05  # S0 leaves out nodes whose reference pressure is below this fraction of its largest
+OUTLET_ZONE = 0.2  # the lowest fifth of the fill: the flowing zone at the outlet (see the docstring)
 
 
 @dataclass(frozen=True)
@@ -89,12 +95,12 @@ def profile(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return d["z"][order], d["p_n"][order]
 
 
-def s0(z, p, z_ref, p_ref, ends: bool = False) -> float:
-    """Eq. 3-13 against the reference profile, on the reference's nodes that carry pressure
-    (without the profile's two end nodes unless ``ends``)."""
+def s0(z, p, z_ref, p_ref, ends: bool = False, z_min: float = -np.inf) -> float:
+    """Eq. 3-13 against the reference profile, on the reference's nodes above z_min that carry
+    pressure (without the profile's two end nodes unless ``ends``)."""
     from silo_dolfinx.analysis import representative_deviation
 
-    keep = p_ref > RELEVANT * p_ref.max()
+    keep = (p_ref > RELEVANT * p_ref.max()) & (z_ref > z_min)
     keep[[0, -1]] &= ends  # the outlet edge and the free-surface edge
     return representative_deviation(np.interp(z_ref[keep], z, p), p_ref[keep])
 
@@ -114,7 +120,7 @@ def run_case(problem: str, key: str, value, discharge: float, extra: tuple[str, 
     t0 = time.perf_counter()
     summary = run(scene, out, MPI.COMM_SELF, progress_every=1e9)
     r = {"wall": time.perf_counter() - t0, "steps": summary["steps"], "cells": summary["cells"],
-         "energy": summary["energy_balance_error_max"]}
+         "energy": summary["energy_balance_error_max"], "outlet_zone": OUTLET_ZONE * scene.geometry.fill_height}
     h = read_csv(out / "wall_history.csv")
     d = next(st for st in summary["stages"] if st["name"] == "discharge")
     if problem == "discharge":
@@ -139,8 +145,10 @@ def errors(problem: str, r: dict, r0: dict) -> list[tuple[str, str]]:
         return [("p_w error", f"{100 * ep:.2f}%"), ("W kg/s", f"{r['flow']:.2f}"), ("W error", f"{100 * ew:.2f}%"),
                 ("E error", f"{100 * r['energy']:.2f}%")]
     names = {"fill": "S0 end of fill", "discharge": "S0 discharge (instant)", "mean": "S0 discharge (mean)"}
-    return [(names[st], f"{s0(*r['profiles'][st], *r0['profiles'][st], st == 'mean'):.4f}") for st in r0["profiles"]] + [
-        ("E error", f"{100 * r['energy']:.2f}%")]
+    cols = [(names[st], f"{s0(*r['profiles'][st], *r0['profiles'][st], st == 'mean'):.4f}") for st in r0["profiles"]]
+    cols.append(("S0 instant, above the outlet zone",
+                 f"{s0(*r['profiles']['discharge'], *r0['profiles']['discharge'], z_min=r0['outlet_zone']):.4f}"))
+    return cols + [("E error", f"{100 * r['energy']:.2f}%")]
 
 
 def table(name: str, discharge: float, repeat: int) -> None:

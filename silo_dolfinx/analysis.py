@@ -372,3 +372,70 @@ def lateral_pressure_ratio(snapshot: dict, wall_profile: dict, z) -> np.ndarray:
     szz = section_average(snapshot["corners"], snapshot["cell_stress_zz"], z)
     ph = np.interp(z, wall_profile["z"], wall_profile["p_n"])
     return ph / -szz
+
+
+# ---------------------------------------------------------------------------- ch. 5 rarefaction waves
+@dataclass
+class WaveGrowth:
+    """A rarefaction wave's amplitude σ⁺ up a column and its fitted exponential growth."""
+
+    x: np.ndarray  # distance travelled from the base (m), every station
+    amplitude: np.ndarray  # σ⁺: the largest drop below the pre-wave value before the reflection (Pa)
+    exponent: float  # b of σ⁺ = σ⁺0 exp(b x), 1/m (eq. 5-1: 1/(2 X0))
+    stderr: float  # its standard error from the regression (1/m)
+    sigma0: float  # σ⁺0: the fit's value at x = 0 (Pa)
+    window: tuple[float, float]  # the stations' x range the fit used (m)
+
+    @property
+    def normalised(self) -> np.ndarray:
+        """σ⁺/σ⁺0 (Figs. 5-6, 5-11/5-12)."""
+        return self.amplitude / self.sigma0
+
+
+def rarefaction_growth(t, x, values, *, t_start: float, wave_speed: float, length: float,
+                       x_min: float = 0.0, x_max: float | None = None, rise: float = 0.01) -> WaveGrowth:
+    """Amplitude of a rarefaction wave launched at the base at t_start, station by station, and
+    its growth exponent (thesis ch. 5, eq. 5-1).
+
+    ``values`` (n_stations, n_times): a compressive stress (wall pressure, or −σ_zz on the
+    axis) at heights ``x`` above the base, sampled at ``t``. At station x the wave arrives at
+    t_start + x/c and its reflection from the top (a column of ``length``) at t_start +
+    (2L − x)/c; σ⁺(x) is the pre-wave value (the mean over ``rise`` s before t_start) minus
+    the smallest value in between (of the history averaged over rise/5 s),
+    the window closed ``rise`` s before the reflection arrives (the time a front takes to pass
+    a point: the pull's own rise, 5 ms in eq. 5-17, plus its smearing over a few cells). A
+    station gets an amplitude only if its front has passed ``rise`` s before the window
+    closes, x ≤ L − c·rise. ln σ⁺ = ln σ⁺0 + b x is fitted by least squares over those
+    stations in [x_min, x_max], b's standard error from the residuals."""
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    v = np.atleast_2d(np.asarray(values, float))
+    if v.shape != (x.size, t.size):
+        raise ValueError(f"values: shape {v.shape}, expected (stations, times) = ({x.size}, {t.size})")
+    before = (t <= t_start) & (t >= t_start - rise)
+    if not before.any():
+        raise ValueError("no sample in [t_start − rise, t_start]: the pre-wave state is unknown")
+    pre = v[:, before].mean(axis=1)
+    # a moving average over rise/5 takes the sample-to-sample noise (ringing behind a front
+    # smeared over a few cells) out of the minimum
+    n = max(1, int(round(0.2 * rise / np.median(np.diff(t)))))
+    if n > 1:
+        v = np.apply_along_axis(lambda r: np.convolve(r, np.ones(n) / n, mode="same"), 1, v)
+    amp = np.full(x.size, np.nan)
+    for k in range(x.size):
+        t_end = t_start + (2.0 * length - x[k]) / wave_speed - rise
+        win = (t > t_start) & (t <= t_end)
+        if t_end >= t_start + x[k] / wave_speed + rise and win.any():
+            amp[k] = pre[k] - np.min(v[k, win])
+    hi = length if x_max is None else x_max
+    use = (x >= x_min) & (x <= hi) & np.isfinite(amp) & (amp > 0)
+    if use.sum() < 3:
+        raise ValueError(f"{int(use.sum())} stations in the fit window [{x_min:g}, {hi:g}] m with a wave: need 3")
+    X, Y = x[use], np.log(amp[use])
+    A = np.column_stack([np.ones_like(X), X])
+    coef, *_ = np.linalg.lstsq(A, Y, rcond=None)
+    resid = Y - A @ coef
+    dof = max(X.size - 2, 1)
+    cov = np.linalg.inv(A.T @ A) * float(resid @ resid) / dof
+    return WaveGrowth(x, amp, float(coef[1]), float(np.sqrt(cov[1, 1])), float(np.exp(coef[0])),
+                      (float(X.min()), float(X.max())))

@@ -234,6 +234,35 @@ class Report:
         ax.grid(alpha=0.3)
         self._save(fig, "wall_history.png", "Wall normal pressure at the stations (dotted: stage ends).")
 
+    def point_histories(self) -> None:
+        """σ_rr, σ_zz and q/p at the interior points (output.points) against time (Figs. 4-16 to
+        4-18), with each point's < 1 Hz RMS of σ_rr over the discharge."""
+        import matplotlib.pyplot as plt
+
+        h = read_csv(self.folder / "point_history.csv")
+        if h is None:
+            return  # no interior points asked for: nothing is missing
+        fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+        t0, t1 = self._stage_times().get("discharge", (np.inf, np.inf))
+        for k in np.unique(h["point"]).astype(int):
+            sel = h["point"] == k
+            t = h["t"][sel]
+            label = f"({h['r'][sel][0]:.2f}, {h['z'][sel][0]:.2f}) m"
+            for ax, col, scale in zip(axes, ("stress_rr", "stress_zz", "q_over_p"), (-1e-3, -1e-3, 1.0)):
+                ax.plot(t, h[col][sel] * scale, lw=0.7, label=label)
+            during = sel & (h["t"] >= self._settled(t0, t1)) & (h["t"] <= t1) & np.isfinite(h["stress_rr"])
+            if during.sum() >= 16:
+                rms, f = analysis.low_frequency_fluctuation(h["t"][during], h["stress_rr"][during])
+                self.numbers.append((f"point {label}: < 1 Hz RMS of σ_rr over the discharge, its frequency",
+                                     f"{rms:.3g} Pa at {f:.3g} Hz"))
+        for ax, name in zip(axes, ("−σ_rr (kPa)", "−σ_zz (kPa)", "q/p")):
+            ax.set_ylabel(name)
+            ax.grid(alpha=0.3)
+        axes[0].legend(fontsize=7, ncol=3)
+        axes[-1].set_xlabel("time t (s)")
+        self._save(fig, "point_histories.png", "Stress at the interior points (the mean of the cell holding each; "
+                   "Figs. 4-16 to 4-18).")
+
     def spectra(self) -> None:
         import matplotlib.pyplot as plt
 
@@ -336,6 +365,11 @@ class Report:
 
     START_UP = 2.0  # s after opening left out of the dynamics (the thesis' flow is steady after ≈ 2 s)
 
+    def _settled(self, t_open: float, t_end: float) -> float:
+        """Where the dynamics are measured from: START_UP s after the opening, when the
+        discharge is at least twice as long."""
+        return t_open + self.START_UP if t_end - t_open >= 2 * self.START_UP else t_open
+
     def wall_dynamics(self) -> None:
         """Why the pressure pulses, per station over the discharge after its start-up
         (``START_UP`` s, when the discharge is at least twice as long): the < 1 Hz fluctuation
@@ -351,7 +385,7 @@ class Report:
             self.missing.append("wall dynamics (needs a discharge and wall_history.csv)")
             return
         h, t_open, t1 = d
-        t0 = t_open + self.START_UP if t1 - t_open >= 2 * self.START_UP else t_open
+        t0 = self._settled(t_open, t1)
         rows = []
         for k in np.unique(h["station"]):
             sel = (h["station"] == k) & (h["t"] >= t0) & (h["t"] <= t1)
@@ -664,7 +698,7 @@ class Report:
         self.numbers = [(k, str(v)) for k, v in pairs if v is not None] + self.numbers
 
     def write(self) -> Path:
-        for part in (self.wall_profiles, self.wall_histories, self.spectra, self.discharge_pressures,
+        for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,
                      self.wall_dynamics, self.outlet, self.flow_channel,
                      self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields):
             try:

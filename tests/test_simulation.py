@@ -233,13 +233,16 @@ def test_a_short_discharge_through_the_dynamic_pressure_report(shared_tmp, comm)
     """A coarse K0 + free-discharge run (serial or 2 ranks) through the report's dynamic parts:
     every station gets a row; Coulomb's law bounds the mobilised friction by μ = 0.3 (to
     round-off: the kinematic contact caps the shear at μ N exactly); the discharge-mean table
-    has a row per station with a finite overpressure where the fill loaded the wall. The
-    stress-field figure: the K0 state at t = 0 is wholly active (σ1 vertical, k0 < 1)."""
+    has a row per station with a finite overpressure where the fill loaded the wall; the
+    interior point gets its history figure and a positive < 1 Hz RMS of σ_rr (the discharge
+    unloads it). The stress-field figure: the K0 state at t = 0 is wholly active (σ1
+    vertical, k0 < 1)."""
     from silo_dolfinx.output import read_csv
     from silo_dolfinx.report import Report
 
     sc = small_scene(fill={"method": "k0"}, store={"duration": 0.05}, discharge={"mode": "free", "duration": 0.5},
-                     output={"history_rate": 200.0, "field_interval": 0.25, "stations": [0.1, 0.3, 0.5]})
+                     output={"history_rate": 200.0, "field_interval": 0.25, "stations": [0.1, 0.3, 0.5],
+                             "points": [[0.1, 0.3]]})
     out = shared_tmp / "dyn"
     run(sc, out, comm, progress_every=1e9)
     comm.barrier()
@@ -254,6 +257,9 @@ def test_a_short_discharge_through_the_dynamic_pressure_report(shared_tmp, comm)
         assert np.all((dyn["slip_fraction"] >= 0.0) & (dyn["slip_fraction"] <= 1.0))
         dp = read_csv(out / "discharge_pressures.csv")
         assert dp["station"].size == 3 and np.all(np.isfinite(dp["overpressure_2s"][dp["p_fill"] > 0]))
+        r.point_histories()
+        rms = [v for k, v in r.numbers if k.startswith("point (0.10, 0.30) m: < 1 Hz RMS")]
+        assert len(rms) == 1 and float(rms[0].split()[0]) > 0.0 and (out / "point_histories.png").is_file()
         r.stress_fields([0.0, 0.55])
         assert not r.missing and (out / "stress_fields.png").is_file()
         shares = [v for k, v in r.numbers if "active state" in k]

@@ -403,16 +403,18 @@ def rarefaction_growth(t, x, values, *, t_start: float, wave_speed: float, lengt
     (2L − x)/c; σ⁺(x) is the pre-wave value (the mean over ``rise`` s before t_start) minus
     the smallest value in between (of the history averaged over rise/5 s),
     the window closed ``rise`` s before the reflection arrives (the time a front takes to pass
-    a point: the pull's own rise, 5 ms in eq. 5-17, plus its smearing over a few cells). A
-    station gets an amplitude only if its front has passed ``rise`` s before the window
-    closes, x ≤ L − c·rise. ln σ⁺ = ln σ⁺0 + b x is fitted by least squares over those
+    a point: the pull's own rise, 5 ms in eq. 5-17, plus its smearing over a few cells) or at
+    the record's end. A station gets an amplitude only if its front has passed ``rise`` s
+    before the window closes (x ≤ L − c·rise) and it has a value throughout. ln σ⁺ = ln σ⁺0 + b x is fitted by least squares over those
     stations in [x_min, x_max], b's standard error from the residuals."""
     t = np.asarray(t, float)
     x = np.asarray(x, float)
     v = np.atleast_2d(np.asarray(values, float))
     if v.shape != (x.size, t.size):
         raise ValueError(f"values: shape {v.shape}, expected (stations, times) = ({x.size}, {t.size})")
-    before = (t <= t_start) & (t >= t_start - rise)
+    keep = t >= t_start - rise  # (before it, e.g. during filling, a point may have no value)
+    t, v = t[keep], v[:, keep]
+    before = t <= t_start
     if not before.any():
         raise ValueError("no sample in [t_start − rise, t_start]: the pre-wave state is unknown")
     pre = v[:, before].mean(axis=1)
@@ -420,12 +422,14 @@ def rarefaction_growth(t, x, values, *, t_start: float, wave_speed: float, lengt
     # smeared over a few cells) out of the minimum
     n = max(1, int(round(0.2 * rise / np.median(np.diff(t)))))
     if n > 1:
-        v = np.apply_along_axis(lambda r: np.convolve(r, np.ones(n) / n, mode="same"), 1, v)
+        from scipy.ndimage import uniform_filter1d
+
+        v = uniform_filter1d(v, n, axis=1, mode="nearest")  # the record's ends are not padded with zeros
     amp = np.full(x.size, np.nan)
     for k in range(x.size):
-        t_end = t_start + (2.0 * length - x[k]) / wave_speed - rise
+        t_end = min(t_start + (2.0 * length - x[k]) / wave_speed - rise, t[-1])
         win = (t > t_start) & (t <= t_end)
-        if t_end >= t_start + x[k] / wave_speed + rise and win.any():
+        if t_end >= t_start + x[k] / wave_speed + rise and win.any() and np.all(np.isfinite(v[k, win])):
             amp[k] = pre[k] - np.min(v[k, win])
     hi = length if x_max is None else x_max
     use = (x >= x_min) & (x <= hi) & np.isfinite(amp) & (amp > 0)

@@ -207,6 +207,11 @@ def test_rarefaction_growth_recovers_the_exponent_of_a_travelling_front():
     assert abs(g.exponent / b - 1.0) < 0.02 and 0.0 < g.stderr < 0.02 * b
     assert abs(g.sigma0 / a0 - 1.0) < 0.02
     assert np.isnan(g.amplitude[-1]) and g.window[1] <= L - c * 0.006
+    # a record that ends inside the lower stations' windows: the ends are no wave
+    cut = t < 0.12
+    short = analysis.rarefaction_growth(t[cut], x, values[:, cut], t_start=0.02, wave_speed=c, length=L, x_min=0.5,
+                                        rise=0.006)
+    assert abs(short.exponent / b - 1.0) < 0.02
     assert np.all(np.abs(g.normalised[x < 4.5] / np.exp(b * x[x < 4.5]) - 1.0) < 0.05)
     # a window running into a second rarefaction (here: the reflection taken as one, sign
     # flipped, as from a rigid top) is what the windows keep out: that fit is off

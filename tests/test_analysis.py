@@ -207,6 +207,14 @@ def test_rarefaction_growth_recovers_the_exponent_of_a_travelling_front():
     assert abs(g.exponent / b - 1.0) < 0.02 and 0.0 < g.stderr < 0.02 * b
     assert abs(g.sigma0 / a0 - 1.0) < 0.02
     assert np.isnan(g.amplitude[-1]) and g.window[1] <= L - c * 0.006
+    # σ⁺0 given (the boundary's ρ c u0): the one-parameter fit through it, and a σ⁺0 twice
+    # too small raises every ln ratio by ln 2, which the slope through the origin absorbs
+    fixed = analysis.rarefaction_growth(t, x, values, t_start=0.02, wave_speed=c, length=L, x_min=0.5, rise=0.006,
+                                        sigma0=a0)
+    assert abs(fixed.exponent / b - 1.0) < 0.02 and fixed.sigma0 == a0
+    low = analysis.rarefaction_growth(t, x, values, t_start=0.02, wave_speed=c, length=L, x_min=0.5, rise=0.006,
+                                      sigma0=a0 / 2)
+    assert low.exponent > 1.2 * b
     # a record that ends inside the lower stations' windows: the ends are no wave
     cut = t < 0.12
     short = analysis.rarefaction_growth(t[cut], x, values[:, cut], t_start=0.02, wave_speed=c, length=L, x_min=0.5,

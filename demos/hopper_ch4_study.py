@@ -98,7 +98,7 @@ if not any((OUT / n / "summary.json").is_file() for n in CASES.values()):
 
 # +
 if comm.rank == 0:
-    have = [c for c, n in CASES.items() if (OUT / n / "summary.json").is_file()]
+    have = [c for c, n in CASES.items() if read_summary(OUT / n).get("status") == "completed"]
     dyn, dp = {}, {}
     for case in have:
         r = Report(OUT / CASES[case])

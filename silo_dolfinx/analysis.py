@@ -448,3 +448,19 @@ def rarefaction_growth(t, x, values, *, t_start: float, wave_speed: float, lengt
     cov = np.linalg.inv(A.T @ A) * float(resid @ resid) / dof
     return WaveGrowth(x, amp, float(coef[-1]), float(np.sqrt(cov[-1, -1])),
                       float(np.exp(coef[0])) if sigma0 is None else float(sigma0), (float(X.min()), float(X.max())))
+
+
+def station_matrix(history: dict, key: str, column: str, sign: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, heights, values (n, n_t)) of a history file read by :func:`silo_dolfinx.output.read_csv`
+    — wall_history.csv (key "station") or point_history.csv (key "point") — each series
+    interpolated onto the union of the sample times, times ``sign`` (−1 turns a tensile-positive
+    stress into a pressure). The height is each station's last (its wall node is placed once
+    its layer is active)."""
+    t = np.unique(history["t"])
+    ids = np.unique(history[key])
+    rows, z = [], []
+    for k in ids:
+        m = history[key] == k
+        rows.append(np.interp(t, history["t"][m], sign * history[column][m]))
+        z.append(history["z"][m][-1])
+    return t, np.array(z), np.array(rows)

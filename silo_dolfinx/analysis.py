@@ -48,7 +48,7 @@ class Spectrum:
     def peaks(self, n: int = 2, min_frequency: float = 0.0, min_separation: float | None = None) -> np.ndarray:
         """Frequencies of the n largest local maxima above min_frequency, at least
         min_separation apart (default: 3 bins), largest first; quadratic interpolation
-        refines each within its bin."""
+        refines each within its bin (a peak that this moves below min_frequency is not one)."""
         f, a = self.frequency, self.amplitude
         sep = 3 * self.resolution if min_separation is None else min_separation
         idx = [i for i in range(1, len(a) - 1) if a[i] >= a[i - 1] and a[i] >= a[i + 1] and f[i] >= min_frequency]
@@ -59,7 +59,7 @@ class Spectrum:
             den = y0 - 2 * y1 + y2
             shift = 0.5 * (y0 - y2) / den if den != 0 else 0.0
             fi = f[i] + shift * self.resolution
-            if all(abs(fi - c) >= sep for c in chosen):
+            if fi >= min_frequency and all(abs(fi - c) >= sep for c in chosen):
                 chosen.append(fi)
             if len(chosen) == n:
                 break

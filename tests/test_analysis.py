@@ -139,6 +139,9 @@ def test_averaged_spectrum_finds_a_drifting_wave_a_single_spectrum_misses():
     avg = analysis.averaged_spectrum(t, x, segments=6)
     assert abs(avg.resolution - 0.2) < 0.01
     assert 5.0 <= avg.peaks(1, min_frequency=1.0)[0] <= 6.0
+    # a peak just above the cutoff bin whose refined frequency lies below it is not reported
+    near = analysis.averaged_spectrum(t, 100.0 * np.sin(2 * math.pi * 0.93 * t) + 20.0 * np.sin(2 * math.pi * 7.0 * t))
+    assert np.all(near.peaks(2, min_frequency=1.0) >= 1.0)
     tone = analysis.averaged_spectrum(t, 100.0 * np.sin(2 * math.pi * 6.0 * t), segments=6)
     assert abs(tone.amplitude.max() / 100.0 - 1.0) < 0.01
 

@@ -208,12 +208,13 @@ if comm.rank == 0:
     lines = ["| quantity | thesis | ours | bar | met? |", "|---|---|---|---|---|"]
     lines += [f"| {a} | {b} | {c} | {d} | {'yes' if ok else '**no**'} |" for a, b, c, d, ok in rows]
     lines += ["", f"At point e (z = {z_e[e]:.2f} m), every case run:", "",
-              "| case | cells | discharge | < 1 Hz RMS, frequency | wave peak | p_s/p_n | in slip | wall-clock | steps/s |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "| case | cells | discharge | measured from | < 1 Hz RMS, frequency | wave peak | p_s/p_n | in slip | "
+              "wall-clock | steps/s |", "|---|---|---|---|---|---|---|---|---|---|"]
     for c in have:
         s = read_summary(OUT / CASES[c])
         d = s["stages"][-1]
-        lines.append(f"| {c} | {s.get('cells')} | {d['t_end'] - d['t_start']:.0f} s | {at_e(c, 'low_rms'):.0f} Pa, "
+        lines.append(f"| {c} | {s.get('cells')} | {d['t_end'] - d['t_start']:.0f} s | {at_e(c, 't_from'):.1f} s | "
+                     f"{at_e(c, 'low_rms'):.0f} Pa, "
                      f"{at_e(c, 'low_frequency'):.2f} Hz | {at_e(c, 'wave_frequency'):.2f} Hz | "
                      f"{at_e(c, 'mobilised_friction'):.4f} | {100 * at_e(c, 'slip_fraction'):.0f} % | "
                      f"{s.get('wall_clock_s', 0) / 60:.1f} min on {s.get('ranks')} ranks | "
@@ -221,4 +222,37 @@ if comm.rank == 0:
     table = "\n".join(lines)
     (OUT / "table.md").write_text(table + "\n")
     print(table)
+# -
+
+# ## Point e in every case
+#
+# The wall pressure at point e over the discharge, and its part below 1 Hz (the filter of
+# `analysis.low_frequency_fluctuation`), one panel per case (Figs. 4-20, 4-23, 4-25).
+
+# +
+if comm.rank == 0:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from scipy import signal as sps
+
+    fig, axes = plt.subplots(len(have), 1, figsize=(10, 1.8 * len(have) + 0.6), sharex=True, squeeze=False)
+    for ax, c in zip(axes[:, 0], have):
+        h = read_csv(OUT / CASES[c] / "wall_history.csv")
+        t_open = read_summary(OUT / CASES[c])["stages"][-1]["t_start"]
+        sel = (h["station"] == e) & (h["t"] >= t_open)
+        t, p = h["t"][sel] - t_open, h["p_n"][sel]
+        ax.plot(t, p / 1e3, color="0.6", lw=0.4)
+        late = t >= dyn[c]["t_from"][e]  # the measured window: after the start-up and the switch
+        fs = (late.sum() - 1) / (t[late][-1] - t[late][0])
+        low = sps.sosfiltfilt(sps.butter(4, 1.0, btype="low", fs=fs, output="sos"), p[late])
+        ax.plot(t[late], low / 1e3, "k-", lw=1.0)
+        ax.set_ylabel(f"{c}\np_n (kPa)", fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time after opening (s)")
+    fig.suptitle(f"Wall pressure at point e (z = {z_e[e]:.2f} m) and its part below 1 Hz", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(OUT / "point_e.png", dpi=110)
+    print(f"{OUT / 'point_e.png'}: p_n at point e, every case")
 # -

@@ -156,6 +156,27 @@ def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float |
     return float(np.sqrt(np.mean(low[edge] ** 2))), float(peaks[0]) if peaks.size else float("nan")
 
 
+def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:
+    """When a station's wall pressure has switched from the filled state to the flowing one: the
+    first time after ``t_open`` that its part below ``cutoff`` (zero-phase 4th-order
+    Butterworth, as :func:`low_frequency_fluctuation`) crosses halfway from its value at the
+    opening to its median over the record's second half (up or down: high on the wall the flow
+    raises it). A free discharge switches within a second; a slowly controlled one later, the
+    slower the later (the outlet must move the solid before the stress state changes). NaN if it
+    never crosses."""
+    from scipy import signal as sps
+
+    t, p = _window(t, p, t_open, None, 16, "the switch time")
+    tu = np.linspace(t[0], t[-1], t.size)
+    fs = (t.size - 1) / (t[-1] - t[0])
+    low = sps.sosfiltfilt(sps.butter(4, cutoff, btype="low", fs=fs, output="sos"), np.interp(tu, t, p),
+                          padlen=min(t.size - 1, int(3 * fs / cutoff)))
+    start, late = p[0], float(np.median(p[t >= 0.5 * (t[0] + t[-1])]))
+    half = 0.5 * (start + late)
+    crossed = np.nonzero(np.sign(low - half) == np.sign(late - half))[0]
+    return float(tu[crossed[0]]) if crossed.size and late != start else float("nan")
+
+
 def mobilised_friction(p_n, p_s, p_min: float = 1.0) -> np.ndarray:
     """|p_s| / p_n where the wall is loaded (p_n > p_min Pa), NaN elsewhere (Figs. 4-13/4-14)."""
     p_n = np.asarray(p_n, float)

@@ -372,7 +372,9 @@ class Report:
 
     def wall_dynamics(self) -> None:
         """Why the pressure pulses, per station over the discharge after its start-up
-        (``START_UP`` s, when the discharge is at least twice as long): the < 1 Hz fluctuation
+        (``START_UP`` s, when the discharge is at least twice as long, and 1 s after the
+        station's switch from the filled to the flowing state, :func:`analysis.switch_time`,
+        whichever is later: a slow controlled discharge switches late): the < 1 Hz fluctuation
         (RMS, frequency), the stress-wave peak, the mobilised friction and the slip fraction
         (wall_dynamics.csv); windowed spectra (Fig. 4-12) and the mobilised friction (Figs.
         4-13/4-14) at the station nearest a quarter of the fill height (the thesis' point e)."""
@@ -388,14 +390,20 @@ class Report:
         t0 = self._settled(t_open, t1)
         rows = []
         for k in np.unique(h["station"]):
-            sel = (h["station"] == k) & (h["t"] >= t0) & (h["t"] <= t1)
+            sel = (h["station"] == k) & (h["t"] >= t_open) & (h["t"] <= t1)
             if sel.sum() < 16:
+                continue
+            ts = analysis.switch_time(h["t"][sel], h["p_n"][sel], t_open)
+            tk = max(t0, ts + 1.0 / analysis.LOW_CUTOFF) if np.isfinite(ts) and t0 > t_open else t0
+            sel &= h["t"] >= tk
+            if sel.sum() < 16 or t1 - tk < 0.25 * (t1 - t_open):  # too little after the switch to measure
+                rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open] + [np.nan] * 6)
                 continue
             t, p = h["t"][sel], h["p_n"][sel]
             rms, f_low = analysis.low_frequency_fluctuation(t, p)
             wave = analysis.averaged_spectrum(t, p).peaks(1, min_frequency=analysis.LOW_CUTOFF)
             mob = analysis.mobilised_friction(p, h["p_s"][sel])
-            rows.append([int(k), float(np.mean(h["z"][sel])), float(np.mean(p)), rms, f_low,
+            rows.append([int(k), float(np.mean(h["z"][sel])), tk - t_open, float(np.mean(p)), rms, f_low,
                          float(wave[0]) if wave.size else np.nan,
                          float(np.nanmean(mob)) if np.any(np.isfinite(mob)) else np.nan,
                          analysis.slip_fraction(h["slip_velocity"][sel])])
@@ -405,10 +413,15 @@ class Report:
         self._table(WALL_DYNAMICS, rows)
         hf = self.scene.geometry.fill_height if self.scene is not None else max(r[1] for r in rows) * 2
         e = min(rows, key=lambda r: abs(r[1] - 0.25 * hf))
+        if not np.isfinite(e[4]):
+            self.missing.append(f"wall dynamics at z = {e[1]:.2f} m (the discharge ends too soon after its switch, "
+                                f"{e[2]:.3g} s after opening)")
+            return
         self.numbers.append((f"station z = {e[1]:.2f} m (≈ h/4, point e): < 1 Hz RMS, its frequency; wave peak",
-                             f"{e[3]:.3g} Pa at {e[4]:.3g} Hz; {e[5]:.3g} Hz"))
+                             f"{e[4]:.3g} Pa at {e[5]:.3g} Hz; {e[6]:.3g} Hz (from {e[2]:.3g} s after opening)"))
         self.numbers.append((f"station z = {e[1]:.2f} m: mobilised |p_s|/p_n, time sliding",
-                             f"{e[6]:.4f}; {100 * e[7]:.0f} % of the discharge"))
+                             f"{e[7]:.4f}; {100 * e[8]:.0f} % of the discharge"))
+        t0 = t_open + e[2]
         sel = (h["station"] == e[0]) & (h["t"] >= t0) & (h["t"] <= t1)
         t, p = h["t"][sel], h["p_n"][sel]
         span = (t1 - t0) / 6.0

@@ -146,6 +146,20 @@ def test_averaged_spectrum_finds_a_drifting_wave_a_single_spectrum_misses():
     assert abs(tone.amplitude.max() / 100.0 - 1.0) < 0.01
 
 
+def test_switch_time_finds_when_the_pressure_leaves_the_filled_state():
+    """A station at 10 kPa that falls to 4 kPa over 0.5 s starting 3 s after the opening (a
+    slow controlled discharge), with a 5-Hz wave and a 0.3-Hz fluctuation riding on the flowing
+    state: the switch is halfway down, 3.25 s after opening, found within 0.1 s (the 1-Hz
+    filter smooths the ramp symmetrically: zero phase). Higher up the wall the flow raises the
+    pressure: the same with the step upwards. The report measures from 1 s after it."""
+    t = np.arange(0.0, 20.0, 0.005)
+    ramp = np.clip((t - 3.0) / 0.5, 0.0, 1.0)
+    flowing = 300.0 * np.sin(2 * math.pi * 0.3 * t) * ramp + 200.0 * np.sin(2 * math.pi * 5.0 * t)
+    for start, end in ((10000.0, 4000.0), (4000.0, 9000.0)):
+        p = start + (end - start) * ramp + flowing
+        assert abs(analysis.switch_time(t, p, 0.0) - 3.25) < 0.1
+
+
 def test_low_frequency_fluctuation_of_a_known_signal():
     """p = 8000 + 300 sin(2π 0.4 t) + 200 sin(2π 5.2 t) over 20 s: the < 1 Hz part has RMS
     300/√2 = 212.1 within 2 % (the filter passes 0.4 Hz at |H|² = 0.9993; the RMS is taken over

@@ -118,9 +118,11 @@ DISCHARGE_PRESSURES = CsvFile("discharge_pressures.csv", "Written by `silo repor
 ))
 
 WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what makes the discharge pressure pulse, "
-                        "per station, over the discharge after its first 2 s (the start-up; all of it if it "
-                        "is shorter than 4 s).", (
+                        "per station, over the discharge after its start-up (2 s, and 1 s after the station's "
+                        "switch from the filled to the flowing state, whichever is later; all of it if the "
+                        "discharge is shorter than 4 s).", (
     C("station", "-", "station index"), C("z", "m", "mean height of the station"),
+    C("t_from", "s", "start of the measured window, after the opening"),
     C("p_mean", "Pa", "mean p_n over the discharge"),
     C("low_rms", "Pa", "RMS of p_n below 1 Hz (window mean and linear trend removed; zero-phase 4th-order "
       "Butterworth)"),

@@ -138,6 +138,23 @@ def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float |
     ends (1/cutoff s at each end are left out where the record is long enough: the filter's
     end effects live there); the dominant frequency is the largest peak of its Hann spectrum
     above one bin (resolution 1/T: a window of T seconds resolves nothing slower than 1/T)."""
+    tu, _, low, inside = _split_low(t, x, t_start, t_end, cutoff)
+    s = spectrum(tu, low, detrend="constant")
+    peaks = s.peaks(1, min_frequency=s.resolution)
+    return float(np.sqrt(np.mean(low[inside] ** 2))), float(peaks[0]) if peaks.size else float("nan")
+
+
+def fast_fluctuation(t, x, t_start: float | None = None, t_end: float | None = None,
+                     cutoff: float = LOW_CUTOFF) -> float:
+    """RMS of the part of a history above ``cutoff``: the detrended signal minus the part
+    :func:`low_frequency_fluctuation` measures, over the same interior window."""
+    _, xu, low, inside = _split_low(t, x, t_start, t_end, cutoff)
+    return float(np.sqrt(np.mean((xu - low)[inside] ** 2)))
+
+
+def _split_low(t, x, t_start, t_end, cutoff):
+    """(uniform times, detrended signal, its part below cutoff, the samples away from the
+    filter's end effects)."""
     from scipy import signal as sps
 
     t, x = _window(t, x, t_start, t_end, 16, "the low-frequency fluctuation")
@@ -148,12 +165,10 @@ def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float |
     low = sps.sosfiltfilt(sos, xu, padlen=min(t.size - 1, int(3 * fs / cutoff)))
     # the filter's end effects (a record does not end on a period of its faster waves) reach
     # about 1/cutoff into it: the RMS is taken inside, where they have died out
-    edge = (tu >= tu[0] + 1.0 / cutoff) & (tu <= tu[-1] - 1.0 / cutoff)
-    if edge.sum() < t.size // 2:
-        edge[:] = True
-    s = spectrum(tu, low, detrend="constant")
-    peaks = s.peaks(1, min_frequency=s.resolution)
-    return float(np.sqrt(np.mean(low[edge] ** 2))), float(peaks[0]) if peaks.size else float("nan")
+    inside = (tu >= tu[0] + 1.0 / cutoff) & (tu <= tu[-1] - 1.0 / cutoff)
+    if inside.sum() < t.size // 2:
+        inside[:] = True
+    return tu, xu, low, inside
 
 
 def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:

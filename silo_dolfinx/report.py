@@ -397,13 +397,14 @@ class Report:
             tk = max(t0, ts + 1.0 / analysis.LOW_CUTOFF) if np.isfinite(ts) and t0 > t_open else t0
             sel &= h["t"] >= tk
             if sel.sum() < 16 or t1 - tk < 0.25 * (t1 - t_open):  # too little after the switch to measure
-                rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open] + [np.nan] * 6)
+                rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open] + [np.nan] * 7)
                 continue
             t, p = h["t"][sel], h["p_n"][sel]
             rms, f_low = analysis.low_frequency_fluctuation(t, p)
+            fast = analysis.fast_fluctuation(t, p)
             wave = analysis.averaged_spectrum(t, p).peaks(1, min_frequency=analysis.LOW_CUTOFF)
             mob = analysis.mobilised_friction(p, h["p_s"][sel])
-            rows.append([int(k), float(np.mean(h["z"][sel])), tk - t_open, float(np.mean(p)), rms, f_low,
+            rows.append([int(k), float(np.mean(h["z"][sel])), tk - t_open, float(np.mean(p)), rms, f_low, fast,
                          float(wave[0]) if wave.size else np.nan,
                          float(np.nanmean(mob)) if np.any(np.isfinite(mob)) else np.nan,
                          analysis.slip_fraction(h["slip_velocity"][sel])])
@@ -417,10 +418,11 @@ class Report:
             self.missing.append(f"wall dynamics at z = {e[1]:.2f} m (the discharge ends too soon after its switch, "
                                 f"{e[2]:.3g} s after opening)")
             return
+        self.numbers.append((f"station z = {e[1]:.2f} m: RMS of p_n above 1 Hz", f"{e[6]:.3g} Pa"))
         self.numbers.append((f"station z = {e[1]:.2f} m (≈ h/4, point e): < 1 Hz RMS, its frequency; wave peak",
-                             f"{e[4]:.3g} Pa at {e[5]:.3g} Hz; {e[6]:.3g} Hz (from {e[2]:.3g} s after opening)"))
+                             f"{e[4]:.3g} Pa at {e[5]:.3g} Hz; {e[7]:.3g} Hz (from {e[2]:.3g} s after opening)"))
         self.numbers.append((f"station z = {e[1]:.2f} m: mobilised |p_s|/p_n, time sliding",
-                             f"{e[7]:.4f}; {100 * e[8]:.0f} % of the discharge"))
+                             f"{e[8]:.4f}; {100 * e[9]:.0f} % of the discharge"))
         t0 = t_open + e[2]
         sel = (h["station"] == e[0]) & (h["t"] >= t0) & (h["t"] <= t1)
         t, p = h["t"][sel], h["p_n"][sel]

@@ -167,7 +167,7 @@ def test_low_frequency_fluctuation_of_a_known_signal():
     ½ by up to 1/(4π f T) = 1.2 %) and its frequency is 0.4 Hz within one bin
     (0.05 Hz); the 5.2 Hz wave alone gives < 1 % of its amplitude: the filter attenuates it by
     ~10⁻⁵·⁸, but the linear trend fitted to 104 periods of it (removed with the record's drain)
-    is itself slow, of order A/(π·104) = 0.6 Pa."""
+    is itself slow, of order A/(π·104) = 0.6 Pa. The part above 1 Hz is the wave's."""
     rate = 200.0
     t = np.arange(0.0, 20.0, 1.0 / rate)
     low = 300.0 * np.sin(2 * math.pi * 0.4 * t)
@@ -176,6 +176,10 @@ def test_low_frequency_fluctuation_of_a_known_signal():
     assert abs(f - 0.4) < 1.0 / 20.0
     rms_wave, _ = analysis.low_frequency_fluctuation(t, 8000.0 + 200.0 * np.sin(2 * math.pi * 5.2 * t))
     assert rms_wave < 1e-2 * 200.0
+    # the rest, above 1 Hz: the wave's 200/√2 = 141.4 Pa within 2 % (the 0.4-Hz part leaves
+    # |1 − |H|²| = 7e-4 of itself behind; the trend fit's 0.6 Pa)
+    fast = analysis.fast_fluctuation(t, 8000.0 + low + 200.0 * np.sin(2 * math.pi * 5.2 * t))
+    assert fast == pytest.approx(200.0 / math.sqrt(2.0), rel=0.02)
 
 
 def test_mobilised_friction_and_slip_fraction():

@@ -127,6 +127,7 @@ WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what mak
     C("low_rms", "Pa", "RMS of p_n below 1 Hz (window mean and linear trend removed; zero-phase 4th-order "
       "Butterworth)"),
     C("low_frequency", "Hz", "dominant frequency of that < 1 Hz part"),
+    C("fast_rms", "Pa", "RMS of p_n above 1 Hz (the detrended signal minus its < 1 Hz part)"),
     C("wave_frequency", "Hz", "largest peak above 1 Hz of the Welch-averaged spectrum of p_n (six half-overlapping "
       "windows: the stress wave, eq. 4-12, which drifts as the fill drains)"),
     C("mobilised_friction", "-", "mean |p_s|/p_n while loaded"),

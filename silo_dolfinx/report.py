@@ -451,6 +451,61 @@ class Report:
         self._save(fig, "wall_dynamics.png", f"At z = {e[1]:.2f} m: spectra of six consecutive windows (Fig. 4-12) "
                    "and the mobilised friction (Figs. 4-13/4-14).")
 
+    RISE = 0.01  # s a rarefaction front takes to pass a point (eq. 5-17's 5-ms pull and its smearing)
+
+    def rarefaction(self) -> None:
+        """Thesis ch. 5: the rarefaction wave a controlled pull of a column's base launches, at
+        the interior points (rarefaction.csv): σ⁺ before the top's reflection, σ⁺/σ⁺0 with
+        σ⁺0 = ρ c u0, eq. 5-1/5-14/5-15 beside it; the growth exponent fitted both through σ⁺0
+        and with a free intercept (Figs. 5-6, 5-11/5-12), and S0 of eq. 5-18 against the theory."""
+        sc = self.scene
+        h = read_csv(self.folder / "point_history.csv")
+        if sc is None or sc.geometry.shape != "column" or sc.discharge.mode != "controlled" or h is None:
+            return  # not a ch. 5 column: nothing is missing
+        import matplotlib.pyplot as plt
+
+        from silo_dolfinx.output.schema import RAREFACTION
+
+        m, g = sc.material, sc.geometry
+        c = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density)
+        t_pull = self._stage_times()["discharge"][0]
+        sigma0 = m.density * c * sc.discharge.velocity
+        t, z, s = analysis.station_matrix(h, "point", "stress_zz", -1.0)
+        fit = dict(t=t, x=z, values=s, t_start=t_pull, wave_speed=c, length=g.height, x_min=0.5, rise=self.RISE)
+        through, free = analysis.rarefaction_growth(**fit, sigma0=sigma0), analysis.rarefaction_growth(**fit)
+        k = m.poisson_ratio / (1.0 - m.poisson_ratio)
+        D, alpha = 2.0 * g.base_radius, g.half_angle
+        ok = np.isfinite(through.amplitude)
+        predicted = np.full(z.size, np.nan)
+        predicted[ok] = theory.wave_growth(z[ok], D, sc.wall.mu, k, alpha)
+        self._table(RAREFACTION, [[i, z[i], through.amplitude[i], through.normalised[i], predicted[i]]
+                                  for i in range(z.size)])
+        s0 = analysis.representative_deviation(through.amplitude[ok], sigma0 * predicted[ok], sigma0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = h["stress_rr"] / h["stress_zz"]
+        k_axis = float(np.nanmedian([ratio[(h["point"] == i) & (h["t"] <= t_pull)][-1]
+                                     for i, zi in zip(np.unique(h["point"]), z) if zi > 0.5]))
+        eq51 = theory.wensrich_exponent(D, sc.wall.mu, k)
+        self.numbers += [
+            ("k = σ_rr/σ_zz on the axis at the pull (median above 0.5 m); intended ν/(1 − ν)", f"{k_axis:.3f}; {k:.3f}"),
+            ("rarefaction growth exponent, through σ⁺0 = ρ c u0 / free intercept (1/m)",
+             f"{through.exponent:.3f} ± {through.stderr:.3f} / {free.exponent:.3f} ± {free.stderr:.3f} "
+             f"(x {through.window[0]:.2f}–{through.window[1]:.2f} m; eq. 5-1 for α = 0: {eq51:.3f})"),
+            ("S0 (eq. 5-18) against eq. 5-1/5-14/5-15", f"{s0:.3f}"),
+        ]
+        fig, ax = plt.subplots(figsize=(7, 5))
+        ax.plot(z[ok], through.normalised[ok], "ko", ms=4, label="σ⁺/σ⁺0 on the axis (ours)")
+        xs = np.linspace(0.0, z[ok].max(), 100)
+        ax.plot(xs, theory.wave_growth(xs, D, sc.wall.mu, k, alpha), "r-",
+                label=f"eq. 5-{'1' if alpha == 0 else ('14' if alpha > 0 else '15')} (α = {alpha:g}°)")
+        ax.plot(xs, np.exp(through.exponent * xs), "k--", lw=0.8, label=f"fit: exp({through.exponent:.3f} x)")
+        ax.set_xlabel("distance travelled x (m)")
+        ax.set_ylabel("σ⁺ / σ⁺0")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        self._save(fig, "rarefaction.png", f"Growth of the rarefaction wave up the column, σ⁺0 = ρ c u0 = "
+                   f"{sigma0:.0f} Pa (Figs. 5-6, 5-12).")
+
     def outlet(self) -> None:
         import matplotlib.pyplot as plt
 
@@ -714,7 +769,7 @@ class Report:
 
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,
-                     self.wall_dynamics, self.outlet, self.flow_channel,
+                     self.wall_dynamics, self.rarefaction, self.outlet, self.flow_channel,
                      self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields):
             try:
                 part()

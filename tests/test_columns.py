@@ -62,3 +62,17 @@ def test_fe1_rarefaction_grows_as_eq_5_1(fe1):
     assert abs(g.exponent / expected - 1.0) < 0.3, g.exponent
     ok = np.isfinite(g.amplitude)
     assert g.amplitude[ok][-1] >= 1.5 * g.amplitude[ok][1]
+    # the report's ch. 5 part measures the same, with eq. 5-1 beside it
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank == 0:
+        from silo_dolfinx.report import Report
+
+        r = Report(out)
+        r.rarefaction()
+        rows = read_csv(out / "rarefaction.csv")
+        fine = np.isfinite(rows["normalised"])
+        assert np.allclose(rows["normalised"][fine], g.normalised[fine], rtol=1e-12)
+        assert np.allclose(rows["predicted"][fine], np.exp(expected * rows["z"][fine]), rtol=1e-5)  # k = 0.5500003
+        assert (out / "rarefaction.png").is_file()
+    MPI.COMM_WORLD.barrier()

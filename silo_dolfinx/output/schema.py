@@ -134,8 +134,17 @@ WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what mak
     C("slip_fraction", "-", "fraction of the samples in which the station slides (|v_slip| > 0.1 mm/s)"),
 ))
 
+RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a controlled discharge of a column "
+                      "(thesis ch. 5): the rarefaction wave launched by the pull, per interior point (output.points; "
+                      "the axis in the ch. 5 scenes), before the top's reflection reaches it.", (
+    C("point", "-", "point index"), C("z", "m", "height = distance the wave has travelled"),
+    C("sigma_plus", "Pa", "σ⁺: the largest drop of −σ_zz below its value at the pull"),
+    C("normalised", "-", "σ⁺/σ⁺0, σ⁺0 = ρ c u0 (the boundary's magnitude)"),
+    C("predicted", "-", "eq. 5-1 / 5-14 / 5-15 for the scene's D, μ, k = ν/(1 − ν) and half-angle"),
+))
+
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,
-                              DISCHARGE_PRESSURES, WALL_DYNAMICS)
+                              DISCHARGE_PRESSURES, WALL_DYNAMICS, RAREFACTION)
 
 
 def for_file(filename: str) -> CsvFile | None:

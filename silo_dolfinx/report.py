@@ -453,15 +453,16 @@ class Report:
 
     RISE = 0.01  # s a rarefaction front takes to pass a point (eq. 5-17's 5-ms pull and its smearing)
 
-    def rarefaction(self) -> None:
+    def rarefaction(self) -> dict | None:
         """Thesis ch. 5: the rarefaction wave a controlled pull of a column's base launches, at
         the interior points (rarefaction.csv): σ⁺ before the top's reflection, σ⁺/σ⁺0 with
         σ⁺0 = ρ c u0, eq. 5-1/5-14/5-15 beside it; the growth exponent fitted both through σ⁺0
-        and with a free intercept (Figs. 5-6, 5-11/5-12), and S0 of eq. 5-18 against the theory."""
+        and with a free intercept (Figs. 5-6, 5-11/5-12), and S0 of eq. 5-18 against the theory;
+        returns them (None for a run that is not a column pulled at its base)."""
         sc = self.scene
         h = read_csv(self.folder / "point_history.csv")
         if sc is None or sc.geometry.shape != "column" or sc.discharge.mode != "controlled" or h is None:
-            return  # not a ch. 5 column: nothing is missing
+            return None  # not a ch. 5 column: nothing is missing
         import matplotlib.pyplot as plt
 
         from silo_dolfinx.output.schema import RAREFACTION
@@ -505,6 +506,7 @@ class Report:
         ax.legend(fontsize=8)
         self._save(fig, "rarefaction.png", f"Growth of the rarefaction wave up the column, σ⁺0 = ρ c u0 = "
                    f"{sigma0:.0f} Pa (Figs. 5-6, 5-12).")
+        return {"k_axis": k_axis, "k": k, "through": through, "free": free, "s0": s0, "eq51": eq51}
 
     def outlet(self) -> None:
         import matplotlib.pyplot as plt

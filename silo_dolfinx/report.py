@@ -472,8 +472,9 @@ class Report:
         t_pull = self._stage_times()["discharge"][0]
         sigma0 = m.density * c * sc.discharge.velocity
         t, z, s = analysis.station_matrix(h, "point", "stress_zz", -1.0)
-        fit = dict(t=t, x=z, values=s, t_start=t_pull, wave_speed=c, length=g.height, x_min=0.5, rise=self.RISE)
-        through, free = analysis.rarefaction_growth(**fit, sigma0=sigma0), analysis.rarefaction_growth(**fit)
+        pull = analysis.Pull(t_pull, c, g.height, self.RISE)
+        through = analysis.rarefaction_growth(t, z, s, pull, (0.5, None), sigma0)
+        free = analysis.rarefaction_growth(t, z, s, pull, (0.5, None))
         k = m.poisson_ratio / (1.0 - m.poisson_ratio)
         D, alpha = 2.0 * g.base_radius, g.half_angle
         ok = np.isfinite(through.amplitude)

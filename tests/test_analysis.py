@@ -224,22 +224,20 @@ def test_rarefaction_growth_recovers_the_exponent_of_a_travelling_front():
     values = (s0 - amp * rise(t[None, :] - 0.02 - x[:, None] / c)
               + 1.5 * amp * rise(t[None, :] - 0.02 - (2 * L - x[:, None]) / c))
     values += 0.01 * a0 * rng.standard_normal(values.shape)
-    g = analysis.rarefaction_growth(t, x, values, t_start=0.02, wave_speed=c, length=L, x_min=0.5, rise=0.006)
+    pull, fit = analysis.Pull(0.02, c, L, 0.006), (0.5, None)
+    g = analysis.rarefaction_growth(t, x, values, pull, fit)
     assert abs(g.exponent / b - 1.0) < 0.02 and 0.0 < g.stderr < 0.02 * b
     assert abs(g.sigma0 / a0 - 1.0) < 0.02
     assert np.isnan(g.amplitude[-1]) and g.window[1] <= L - c * 0.006
     # σ⁺0 given (the boundary's ρ c u0): the one-parameter fit through it, and a σ⁺0 twice
     # too small raises every ln ratio by ln 2, which the slope through the origin absorbs
-    fixed = analysis.rarefaction_growth(t, x, values, t_start=0.02, wave_speed=c, length=L, x_min=0.5, rise=0.006,
-                                        sigma0=a0)
+    fixed = analysis.rarefaction_growth(t, x, values, pull, fit, sigma0=a0)
     assert abs(fixed.exponent / b - 1.0) < 0.02 and fixed.sigma0 == a0
-    low = analysis.rarefaction_growth(t, x, values, t_start=0.02, wave_speed=c, length=L, x_min=0.5, rise=0.006,
-                                      sigma0=a0 / 2)
+    low = analysis.rarefaction_growth(t, x, values, pull, fit, sigma0=a0 / 2)
     assert low.exponent > 1.2 * b
     # a record that ends inside the lower stations' windows: the ends are no wave
     cut = t < 0.12
-    short = analysis.rarefaction_growth(t[cut], x, values[:, cut], t_start=0.02, wave_speed=c, length=L, x_min=0.5,
-                                        rise=0.006)
+    short = analysis.rarefaction_growth(t[cut], x, values[:, cut], pull, fit)
     assert abs(short.exponent / b - 1.0) < 0.02
     assert np.all(np.abs(g.normalised[x < 4.5] / np.exp(b * x[x < 4.5]) - 1.0) < 0.05)
     # a window running into a second rarefaction (here: the reflection taken as one, sign
@@ -247,7 +245,6 @@ def test_rarefaction_growth_recovers_the_exponent_of_a_travelling_front():
     back = a0 * np.exp(b * L)  # what reached the top, on its way down
     rigid = values - 1.5 * amp * rise(t[None, :] - 0.02 - (2 * L - x[:, None]) / c) - back * rise(
         t[None, :] - 0.02 - (2 * L - x[:, None]) / c)
-    assert abs(analysis.rarefaction_growth(t, x, rigid, t_start=0.02, wave_speed=c, length=L, x_min=0.5,
-                                           rise=0.006).exponent / b - 1.0) < 0.02
-    late = analysis.rarefaction_growth(t, x, rigid, t_start=0.02, wave_speed=0.7 * c, length=L, x_min=0.5, rise=0.006)
+    assert abs(analysis.rarefaction_growth(t, x, rigid, pull, fit).exponent / b - 1.0) < 0.02
+    late = analysis.rarefaction_growth(t, x, rigid, analysis.Pull(0.02, 0.7 * c, L, 0.006), fit)
     assert abs(late.exponent / b - 1.0) > 0.1

@@ -55,8 +55,8 @@ def test_fe1_rarefaction_grows_as_eq_5_1(fe1):
     c = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density)
     t0 = read_summary(out)["stages"][-1]["t_start"]
     t, z, s = analysis.station_matrix(read_csv(out / "point_history.csv"), "point", "stress_zz", -1.0)
-    g = analysis.rarefaction_growth(t, z, s, t_start=t0, wave_speed=c, length=sc.geometry.height, x_min=0.5,
-                                    rise=0.01, sigma0=m.density * c * sc.discharge.velocity)
+    g = analysis.rarefaction_growth(t, z, s, analysis.Pull(t0, c, sc.geometry.height, 0.01), (0.5, None),
+                                    sigma0=m.density * c * sc.discharge.velocity)
     expected = theory.wensrich_exponent(2 * sc.geometry.base_radius, sc.wall.mu, 0.55)
     assert abs(expected - 0.33) < 0.005
     assert abs(g.exponent / expected - 1.0) < 0.3, g.exponent

@@ -452,6 +452,7 @@ class Report:
                    "and the mobilised friction (Figs. 4-13/4-14).")
 
     RISE = 0.01  # s a rarefaction front takes to pass a point (eq. 5-17's 5-ms pull and its smearing)
+    SATURATED = 0.8  # σ⁺ / the pre-wave stress beyond which the wave is no longer small (rarefaction)
 
     def rarefaction(self) -> dict | None:
         """Thesis ch. 5: the rarefaction wave a controlled pull of a column's base launches, at
@@ -473,8 +474,15 @@ class Report:
         sigma0 = m.density * c * sc.discharge.velocity
         t, z, s = analysis.station_matrix(h, "point", "stress_zz", -1.0)
         pull = analysis.Pull(t_pull, c, g.height, self.RISE)
-        through = analysis.rarefaction_growth(t, z, s, pull, (0.5, None), sigma0)
-        free = analysis.rarefaction_growth(t, z, s, pull, (0.5, None))
+        # the theory is for a wave small against the stress it relieves: the fit stops below the
+        # first point where σ⁺ has taken SATURATED of the stress there (a rarefaction cannot
+        # relieve more than all of it; FE-2's 10.5 kPa is 2.5 σ⁺0)
+        pre = s[:, np.searchsorted(t, t_pull, side="right") - 1]
+        every = analysis.rarefaction_growth(t, z, s, pull, (0.5, None))
+        saturated = np.nonzero((every.amplitude > self.SATURATED * pre) & (z >= 0.5))[0]
+        fit = (0.5, float(z[saturated[0]]) - 1e-9 if saturated.size else None)
+        through = analysis.rarefaction_growth(t, z, s, pull, fit, sigma0)
+        free = analysis.rarefaction_growth(t, z, s, pull, fit)
         k = m.poisson_ratio / (1.0 - m.poisson_ratio)
         D, alpha = 2.0 * g.base_radius, g.half_angle
         ok = np.isfinite(through.amplitude)

@@ -140,7 +140,8 @@ RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a control
     C("point", "-", "point index"), C("z", "m", "height = distance the wave has travelled"),
     C("sigma_plus", "Pa", "σ⁺: the largest drop of −σ_zz below its value at the pull"),
     C("normalised", "-", "σ⁺/σ⁺0, σ⁺0 = ρ c u0 (the boundary's magnitude)"),
-    C("predicted", "-", "eq. 5-1 / 5-14 / 5-15 for the scene's D, μ, k = ν/(1 − ν) and half-angle"),
+    C("predicted", "-", "eq. 5-1 / 5-14 / 5-15 for the scene's D, μ and half-angle and the k = σ_rr/σ_zz the run "
+      "reached on the axis"),
 ))
 
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,

@@ -100,7 +100,8 @@ if comm.rank == 0:
 
 # +
 if comm.rank == 0:
-    lines = ["| case | D (m) | μ | k intended / on the axis | X0 (m) | 1/(2X0) | thesis FE | ours, through σ⁺0 | "
+    lines = ["| case | D (m) | μ | k intended / on the axis | X0 (m), intended k | 1/(2X0), k on the axis | thesis FE | "
+             "ours, through σ⁺0 | "
              "ours, free | within 20 % of the thesis? | energy error | wall-clock |", "|" + "---|" * 12]
     for c, (_, fe) in TABLE_5_2.items():
         if c not in res:

@@ -14,17 +14,29 @@ from silo_dolfinx.simulation import run
 FE1 = SCENES / "column_ch5_FE1.toml"
 
 
+def run_fe1(out, comm):
+    """FE-1 (D 1 m, μ 0.3, k 0.55, X0 1.515 m) on a 0.04-m mesh (3,125 cells; ~1 min serial)."""
+    sc = load_scene(FE1, ["geometry.element_size=0.04", "output.field_interval=0", "output.history_rate=10000.0"])
+    run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    return sc, out
+
+
+def axis_growth(sc, out):
+    m = sc.material
+    c = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density)
+    t0 = read_summary(out)["stages"][-1]["t_start"]
+    t, z, s = analysis.station_matrix(read_csv(out / "point_history.csv"), "point", "stress_zz", -1.0)
+    return analysis.rarefaction_growth(t, z, s, analysis.Pull(t0, c, sc.geometry.height, 0.01), (0.5, None),
+                                       sigma0=m.density * c * sc.discharge.velocity)
+
+
 @pytest.fixture(scope="module")
 def fe1(tmp_path_factory):
-    """FE-1 (D 1 m, μ 0.3, k 0.55, X0 1.515 m) on a 0.04-m mesh (3,125 cells; ~1 min serial)."""
     from mpi4py import MPI
 
     out = tmp_path_factory.mktemp("fe1")
-    out = type(out)(MPI.COMM_WORLD.bcast(str(out), root=0))
-    sc = load_scene(FE1, ["geometry.element_size=0.04", "output.field_interval=0", "output.history_rate=10000.0"])
-    run(sc, out, MPI.COMM_WORLD, progress_every=1e9)
-    MPI.COMM_WORLD.barrier()
-    return sc, out
+    return run_fe1(type(out)(MPI.COMM_WORLD.bcast(str(out), root=0)), MPI.COMM_WORLD)
 
 
 def test_fe1_reaches_the_intended_k_before_the_pull(fe1):
@@ -51,12 +63,7 @@ def test_fe1_rarefaction_grows_as_eq_5_1(fe1):
     bulk viscosity, as Abaqus' default, damps the front more on a coarse mesh: 0.35 without
     it, 0.25 at h 0.02 m) and it grows: the top stations' σ⁺ is ≥ 1.5 × the bottom's."""
     sc, out = fe1
-    m = sc.material
-    c = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density)
-    t0 = read_summary(out)["stages"][-1]["t_start"]
-    t, z, s = analysis.station_matrix(read_csv(out / "point_history.csv"), "point", "stress_zz", -1.0)
-    g = analysis.rarefaction_growth(t, z, s, analysis.Pull(t0, c, sc.geometry.height, 0.01), (0.5, None),
-                                    sigma0=m.density * c * sc.discharge.velocity)
+    g = axis_growth(sc, out)
     expected = theory.wensrich_exponent(2 * sc.geometry.base_radius, sc.wall.mu, 0.55)
     assert abs(expected - 0.33) < 0.005
     assert abs(g.exponent / expected - 1.0) < 0.3, g.exponent
@@ -78,3 +85,20 @@ def test_fe1_rarefaction_grows_as_eq_5_1(fe1):
         assert np.allclose(rows["predicted"][fine], np.exp(b51 * rows["z"][fine]), rtol=1e-12)
         assert (out / "rarefaction.png").is_file()
     MPI.COMM_WORLD.barrier()
+
+
+def test_fe1_on_two_ranks_measures_what_one_rank_does(fe1, tmp_path):
+    """Under mpirun -n 2 (the MPI leg of the tests): the same FE-1 run on one rank (each rank
+    runs it alone) gives the wave amplitudes and the exponent of the 2-rank run to 1e-9 —
+    the partition changes only the order of floating-point sums."""
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.size == 1:
+        pytest.skip("compares a 1-rank with a 2-rank run: runs in the MPI leg")
+    sc, out = fe1
+    alone = run_fe1(tmp_path / "alone", MPI.COMM_SELF)[1]
+    a, b = axis_growth(sc, out), axis_growth(sc, alone)
+    ok = np.isfinite(a.amplitude)
+    assert np.array_equal(ok, np.isfinite(b.amplitude))
+    assert np.allclose(a.amplitude[ok], b.amplitude[ok], rtol=1e-9)
+    assert a.exponent == pytest.approx(b.exponent, rel=1e-9)

@@ -152,6 +152,17 @@ def fast_fluctuation(t, x, t_start: float | None = None, t_end: float | None = N
     return float(np.sqrt(np.mean((xu - low)[inside] ** 2)))
 
 
+def low_pass(t_uniform, x, cutoff: float = LOW_CUTOFF) -> np.ndarray:
+    """The part of a uniformly sampled signal below ``cutoff``: 4th-order Butterworth run
+    forwards and backwards (zero phase, |H|² = 1/(1 + (f/f_c)⁸)), padded over 3/cutoff s."""
+    from scipy import signal as sps
+
+    t_uniform = np.asarray(t_uniform, float)
+    fs = (t_uniform.size - 1) / (t_uniform[-1] - t_uniform[0])
+    sos = sps.butter(4, cutoff, btype="low", fs=fs, output="sos")
+    return sps.sosfiltfilt(sos, x, padlen=min(t_uniform.size - 1, int(3 * fs / cutoff)))
+
+
 def _split_low(t, x, t_start, t_end, cutoff):
     """(uniform times, detrended signal, its part below cutoff, the samples away from the
     filter's end effects)."""
@@ -160,9 +171,7 @@ def _split_low(t, x, t_start, t_end, cutoff):
     t, x = _window(t, x, t_start, t_end, 16, "the low-frequency fluctuation")
     tu = np.linspace(t[0], t[-1], t.size)
     xu = sps.detrend(np.interp(tu, t, x), type="linear")
-    fs = (t.size - 1) / (t[-1] - t[0])
-    sos = sps.butter(4, cutoff, btype="low", fs=fs, output="sos")
-    low = sps.sosfiltfilt(sos, xu, padlen=min(t.size - 1, int(3 * fs / cutoff)))
+    low = low_pass(tu, xu, cutoff)
     # the filter's end effects (a record does not end on a period of its faster waves) reach
     # about 1/cutoff into it: the RMS is taken inside, where they have died out
     inside = (tu >= tu[0] + 1.0 / cutoff) & (tu <= tu[-1] - 1.0 / cutoff)
@@ -179,13 +188,9 @@ def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:
     raises it). A free discharge switches within a second; a slowly controlled one later, the
     slower the later (the outlet must move the solid before the stress state changes). NaN if it
     never crosses."""
-    from scipy import signal as sps
-
     t, p = _window(t, p, t_open, None, 16, "the switch time")
     tu = np.linspace(t[0], t[-1], t.size)
-    fs = (t.size - 1) / (t[-1] - t[0])
-    low = sps.sosfiltfilt(sps.butter(4, cutoff, btype="low", fs=fs, output="sos"), np.interp(tu, t, p),
-                          padlen=min(t.size - 1, int(3 * fs / cutoff)))
+    low = low_pass(tu, np.interp(tu, t, p), cutoff)
     start, late = p[0], float(np.median(p[t >= 0.5 * (t[0] + t[-1])]))
     half = 0.5 * (start + late)
     crossed = np.nonzero(np.sign(low - half) == np.sign(late - half))[0]

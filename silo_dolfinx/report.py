@@ -491,24 +491,35 @@ class Report:
         k = m.poisson_ratio / (1.0 - m.poisson_ratio)
         D, alpha = 2.0 * g.base_radius, g.half_angle
         ok = np.isfinite(through.amplitude)
-        predicted = np.full(z.size, np.nan)
+        predicted, taper = np.full(z.size, np.nan), np.full(z.size, np.nan)
         predicted[ok] = theory.wave_growth(z[ok], D, sc.wall.mu, k_axis, alpha)
-        self._table(RAREFACTION, [[i, z[i], through.amplitude[i], through.normalised[i], predicted[i]]
+        taper[ok] = theory.taper_wave_growth(z[ok], D, sc.wall.mu, k_axis, alpha)
+        self._table(RAREFACTION, [[i, z[i], through.amplitude[i], through.normalised[i], predicted[i], taper[i]]
                                   for i in range(z.size)])
         s0 = analysis.representative_deviation(through.amplitude[ok], sigma0 * predicted[ok], sigma0)
+        s0_taper = analysis.representative_deviation(through.amplitude[ok], sigma0 * taper[ok], sigma0)
         eq51 = theory.wensrich_exponent(D, sc.wall.mu, k_axis)
+        # the theory starts from a sliding wall (τ = μ p_n); a wall below that first re-mobilises
+        # under the wave instead of sliding, and the wave grows less
+        mobilised = self._mobilised(t_pull, fit)
         self.numbers += [
             ("k = σ_rr/σ_zz on the axis at the pull (median above 0.5 m); intended ν/(1 − ν)", f"{k_axis:.3f}; {k:.3f}"),
+            ("wall friction mobilised at the pull, p_s/(μ p_n) over the fit window: mean, least",
+             f"{np.mean(mobilised):.3f}, {np.min(mobilised):.3f}"),
             ("rarefaction growth exponent, through σ⁺0 = ρ c u0 / free intercept (1/m)",
              f"{through.exponent:.3f} ± {through.stderr:.3f} / {free.exponent:.3f} ± {free.stderr:.3f} "
              f"(x {through.window[0]:.2f}–{through.window[1]:.2f} m; eq. 5-1 with that k, α = 0: {eq51:.3f})"),
-            ("S0 (eq. 5-18) against eq. 5-1/5-14/5-15", f"{s0:.3f}"),
+            ("S0 (eq. 5-18) against eq. 5-1/5-14/5-15; against the 1-D model with the taper's lateral strain",
+             f"{s0:.3f}; {s0_taper:.3f}"),
         ]
         fig, ax = plt.subplots(figsize=(7, 5))
         ax.plot(z[ok], through.normalised[ok], "ko", ms=4, label="σ⁺/σ⁺0 on the axis (ours)")
         xs = np.linspace(0.0, z[ok].max(), 100)
         ax.plot(xs, theory.wave_growth(xs, D, sc.wall.mu, k_axis, alpha), "r-",
                 label=f"eq. 5-{'1' if alpha == 0 else ('14' if alpha > 0 else '15')} (α = {alpha:g}°)")
+        if alpha != 0.0:
+            ax.plot(xs, theory.taper_wave_growth(xs, D, sc.wall.mu, k_axis, alpha), "b-",
+                    label="1-D model with the taper's lateral strain (G^(kμ/tan α − 1))")
         ax.plot(xs, np.exp(through.exponent * xs), "k--", lw=0.8, label=f"fit: exp({through.exponent:.3f} x)")
         ax.set_xlabel("distance travelled x (m)")
         ax.set_ylabel("σ⁺ / σ⁺0")
@@ -516,7 +527,20 @@ class Report:
         ax.legend(fontsize=8)
         self._save(fig, "rarefaction.png", f"Growth of the rarefaction wave up the column, σ⁺0 = ρ c u0 = "
                    f"{sigma0:.0f} Pa (Figs. 5-6, 5-12).")
-        return {"k_axis": k_axis, "k": k, "through": through, "free": free, "s0": s0, "eq51": eq51}  # eq51: k_axis
+        return {"k_axis": k_axis, "k": k, "through": through, "free": free, "s0": s0, "s0_taper": s0_taper,
+                "eq51": eq51,  # eq51: with k_axis
+                "mobilised": float(np.mean(mobilised)), "mobilised_least": float(np.min(mobilised))}
+
+    def _mobilised(self, t: float, window: tuple) -> np.ndarray:
+        """p_s/(μ p_n) at time t at the wall stations whose height lies in window (lo, hi|None)."""
+        wall = read_csv(self.folder / "wall_history.csv")
+        if wall is None:
+            return np.array([np.nan])
+        times, z, pn = analysis.station_matrix(wall, "station", "p_n")
+        _, _, ps = analysis.station_matrix(wall, "station", "p_s")
+        i = np.searchsorted(times, t, side="right") - 1
+        inside = (z >= window[0]) & (z <= (np.inf if window[1] is None else window[1]))
+        return ps[inside, i] / (self.scene.wall.mu * pn[inside, i])
 
     def outlet(self) -> None:
         import matplotlib.pyplot as plt

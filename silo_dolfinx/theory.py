@@ -344,6 +344,42 @@ def wave_growth(x, diameter: float, mu: float, k: float, half_angle: float = 0.0
     return base ** (k * (1.0 - mu / math.tan(a)))
 
 
+def taper_wave_growth(x, diameter: float, mu: float, k: float, half_angle: float = 0.0):
+    """σ⁺/σ⁺0 of a small rarefaction wave after travelling x (m) up a tapered column, from the
+    same 1-D slice model as eqs. 5-14/5-15 but keeping the lateral strain the taper imposes:
+
+        σ⁺/σ⁺0 = G^{k μ / tan α − 1},   G = D(x)/D = 1 + 2x tan α/D   (α > 0 widening upwards)
+
+    Derivation (x up, D(x) = D G, A = π D²/4, s the axial stress relieved, w the downward
+    velocity, M the constrained modulus, k the lateral/axial ratio of the increments, the wall
+    sliding with τ = μ p_w):
+
+        ρ w_t = −s_x − a s,   a = (1 − k) A'/A − μ k P/A      (slice momentum: the stress on
+                                                              its faces, the wall's normal
+                                                              reaction k s A', friction)
+        s_t  = −M (w_x + b w),  b = k A'/A                     (uniaxial strain plus the radial
+                                                              strain w A'/(2A) of a slice that
+                                                              slides along the taper)
+
+    A wave front's amplitude obeys S'/S = −(a + b)/2 = 2 μ k/D(x) − A'/(2A): the friction term
+    of eq. 5-1 and a horn's A^{−1/2}; integrated, the power above. It tends to eq. 5-1 as
+    α → 0; eqs. 5-14/5-15 have the exponent k(1 + μ/tan α) instead (their area term +k where
+    this has −1). Small |α|; diverging (α < 0) only below the apex (2x tan|α| < D)."""
+    import numpy as np
+
+    _positive(diameter=diameter, mu=mu, k=k)
+    x = _nonneg_array("x", x)
+    if half_angle == 0.0:
+        return np.exp(x * wensrich_exponent(diameter, mu, k))
+    if not -45.0 < half_angle < 45.0:
+        raise ValueError(f"half_angle = {half_angle!r}: must be in (-45, 45) degrees (small-angle theory)")
+    t = math.tan(math.radians(half_angle))
+    G = 1.0 + 2.0 * x * t / diameter
+    if np.any(G <= 0):
+        raise ValueError("x: beyond the apex of the diverging column (2x tan|α| ≥ D)")
+    return G ** (k * mu / t - 1.0)
+
+
 # ---------------------------------------------------------------------------- wall friction
 def dynamic_friction(slip_speed, mu_static: float, mu_kinetic: float, decay: float):
     """Eq. 7-1: μ_d = μ_k + (μ_s − μ_k) exp(−ϖ |v_slip|), ϖ in s/m; needs μ_k ≤ μ_s."""

@@ -142,6 +142,8 @@ RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a control
     C("normalised", "-", "σ⁺/σ⁺0, σ⁺0 = ρ c u0 (the boundary's magnitude)"),
     C("predicted", "-", "eq. 5-1 / 5-14 / 5-15 for the scene's D, μ and half-angle and the k = σ_rr/σ_zz the run "
       "reached on the axis"),
+    C("predicted_taper", "-", "the same 1-D model keeping the lateral strain the taper imposes "
+      "(theory.taper_wave_growth: G^(k μ/tan α − 1)); equals `predicted` for a parallel column"),
 ))
 
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,

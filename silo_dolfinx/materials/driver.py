@@ -220,7 +220,7 @@ def run_study(out: str, cone: str = "plane_strain", gamma_max: float = 0.1, step
     figure([3, 4, 1, 5], "fig8-4_youngs_modulus.png", "Fig. 8-4: Young's modulus (k = 0.4, ψ = 0)")
     figure([1, 8, 7, 6], "fig8-6_lateral_ratio.png", "Fig. 8-6: lateral pressure ratio k (ψ = 0)")
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    es = [r for r in rows if r["case"] in (3, 4, 1, 5)]
+    es = sorted((r for r in rows if r["case"] in (3, 4, 1, 5)), key=lambda r: r["E_kPa"])
     ax[0].semilogx([r["E_kPa"] for r in es], [r["peak_difference"] for r in es], "ko-")
     ax[0].set_xlabel("E (kPa)")
     ax[0].set_ylabel("peak coaxial − non-coaxial τ/σy")

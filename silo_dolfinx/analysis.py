@@ -251,6 +251,45 @@ def discharged_volume_percentage(initial_volume: float, volume) -> np.ndarray:
     return (initial_volume - np.asarray(volume, float)) / initial_volume * 100.0
 
 
+def discharged_percentage(discharged_mass, mass_at_opening: float) -> np.ndarray:
+    """Eq. 6-2 counted in mass: V_dis = (V0 − V')/V0 × 100 % with V0, V' the solid's volumes at
+    its density at the opening — the discharged mass over the mass at the opening."""
+    if mass_at_opening <= 0:
+        raise ValueError("mass_at_opening must be positive")
+    return np.asarray(discharged_mass, float) / mass_at_opening * 100.0
+
+
+def first_time_reaching(t, series, level: float) -> float:
+    """The first time a non-decreasing-on-the-whole ``series`` reaches ``level`` (linear
+    interpolation between samples); nan if it never does."""
+    t, y = np.asarray(t, float), np.asarray(series, float)
+    i = np.nonzero(y >= level)[0]
+    if i.size == 0:
+        return float("nan")
+    j = int(i[0])
+    if j == 0 or y[j] == y[j - 1]:
+        return float(t[j])
+    return float(t[j - 1] + (level - y[j - 1]) * (t[j] - t[j - 1]) / (y[j] - y[j - 1]))
+
+
+def steady_flow_start(t, discharged_mass, window: float = 1.0, tolerance: float = 0.1,
+                      t_start: float | None = None) -> float:
+    """When the discharge becomes steady: the start of the first window (of ``window`` s, from
+    ``t_start``) from which the mass flow of every later whole window (three at least) stays
+    within ``tolerance`` of their mean, and their linear trend changes it by less than that
+    over their span (a slow drift is not steady). nan if there is no such window."""
+    starts, rates = windowed_mass_flow(t, discharged_mass, window, t_start)
+    for i in range(starts.size - 2):
+        rest = rates[i:]
+        mean = rest.mean()
+        if mean <= 0 or np.any(np.abs(rest - mean) > tolerance * mean):
+            continue
+        slope = np.polyfit(starts[i:], rest, 1)[0]
+        if abs(slope) * (starts[-1] - starts[i]) <= tolerance * mean:
+            return float(starts[i])
+    return float("nan")
+
+
 def outlet_mass_flow(r, vz, density) -> float:
     """Mass flow rate (kg/s) through a horizontal outlet: ∫ ρ (−v_z) 2π r dr (trapezoid over
     the outlet nodes sorted by r; downward velocity negative)."""
@@ -327,6 +366,24 @@ def flow_channel_boundary(r, z, vz, fraction: float = 1e-3, rows: np.ndarray | N
         return np.array(Z), np.array(out)
     out = np.array([_fcb_row(r[i], vz[i], fraction) for i in range(r.shape[0])])
     return z[:, 0], out
+
+
+def flow_channel_from_nodes(xy, vz, radius_at, fraction: float = 1e-3, rows: int = 60, columns: int = 101):
+    """The flow-channel boundary of a nodal velocity field (a snapshot's node_xy and v_z):
+    v_z interpolated (linear; nearest outside the hull) onto ``rows`` heights between 2 % and
+    98 % of the top and ``columns`` radii from the axis to the wall, ``radius_at(z)`` the wall
+    radius. Returns (z_rows, r_fcb, wall radius) as :func:`flow_channel_boundary`."""
+    from scipy.interpolate import griddata
+
+    xy = np.asarray(xy, float)
+    zs = np.linspace(0.02 * xy[:, 1].max(), 0.98 * xy[:, 1].max(), rows)
+    rw = np.asarray(radius_at(zs), float)
+    R = rw[:, None] * np.linspace(0.0, 1.0, columns)[None, :]
+    Z = np.repeat(zs[:, None], columns, axis=1)
+    VZ = griddata(xy, vz, (R, Z), method="linear")
+    VZ = np.where(np.isnan(VZ), griddata(xy, vz, (R, Z), method="nearest"), VZ)
+    z_rows, r_fcb = flow_channel_boundary(R, Z, VZ, fraction)
+    return z_rows, r_fcb, rw
 
 
 def _fcb_row(r, vz, fraction):

@@ -546,13 +546,28 @@ class Report:
         import matplotlib.pyplot as plt
 
         d = read_csv(self.folder / "outlet.csv")
-        if d is None:
+        if d is None or d["t"].size < 2:
             self.missing.append("outlet flow (outlet.csv: written during discharge)")
             return
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+        fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
         a1.plot(d["t"], d["mean_outlet_velocity"], "k-", lw=0.8)
         a1.set_ylabel("mean outlet velocity (m/s)")
         a1.grid(alpha=0.3)
+        a3.set_ylabel("V_dis (%, eq. 6-2)")
+        a3.grid(alpha=0.3)
+        if (v := self._v_dis()) is not None:
+            t, vd = v
+            a3.plot(t, vd, "k-", lw=1)
+            # steady: every later 1-s window's mass flow within 10 % of their mean
+            ts = analysis.steady_flow_start(t, d["discharged_mass"], self.STEADY_WINDOW, self.STEADY_TOLERANCE)
+            self.numbers.append(("discharged V_dis (eq. 6-2, in mass) at the end", f"{vd[-1]:.3g} %"))
+            self.numbers.append((f"steady flow from (every later {self.STEADY_WINDOW:g}-s window's mass flow "
+                                 f"within {100 * self.STEADY_TOLERANCE:g} % of their mean)",
+                                 "not reached" if np.isnan(ts) else
+                                 f"t = {ts:.3g} s, V_dis {np.interp(ts, t, vd):.3g} %"))
+            if np.isfinite(ts):
+                for a in (a2, a3):
+                    a.axvline(ts, color="g", ls=":", lw=1)
         a2.plot(d["t"], d["mass_flow_rate"], "k-", lw=0.8, label="mass leaving (simulation)")
         if "nominal_mass_flow_rate" in d:
             a2.plot(d["t"], d["nominal_mass_flow_rate"], "b-", lw=0.6, alpha=0.6,
@@ -571,11 +586,12 @@ class Report:
                     nom = float(np.nanmean(d["nominal_mass_flow_rate"][steady]))
                     self.numbers.append(("nominal mass flow ρ0·A·v (the thesis' definition), second half",
                                          f"{nom:.4g} kg/s ({100 * (nom - Wb) / Wb:+.1f} % from Beverloo)"))
-        a2.set_xlabel("time t (s)")
+        a3.set_xlabel("time t (s)")
         a2.set_ylabel("mass flow rate (kg/s)")
         a2.legend(fontsize=8)
         a2.grid(alpha=0.3)
-        self._save(fig, "outlet.png", "Outlet velocity and mass flow rate against Beverloo.")
+        self._save(fig, "outlet.png", "Outlet velocity, mass flow rate against Beverloo, and the discharged "
+                   "volume V_dis (dotted: steady flow from there).")
 
     def mesh_quality(self) -> None:
         """Critical-element aspect ratio against the fall of the top surface (Fig. 3-18)."""
@@ -658,43 +674,75 @@ class Report:
             return None
         return dict(np.load(snaps[-1]))
 
-    def flow_channel(self) -> None:
-        import matplotlib.pyplot as plt
-        from scipy.interpolate import griddata
+    V_DIS = (0.1, 3.0, 6.0, 10.0)  # % discharged at which the thesis draws the FCB (Fig. 6-11)
+    STEADY_WINDOW, STEADY_TOLERANCE = 1.0, 0.1  # s, fraction: the steady-flow criterion
 
-        snap = self._snapshot()
+    def _v_dis(self):
+        """(t, V_dis %) of the discharge (eq. 6-2 in mass), or None."""
+        d = read_csv(self.folder / "outlet.csv")
+        if d is None or d["t"].size == 0 or "mass_in_silo" not in d:
+            return None  # an old results folder: no V_dis
+        m0 = float(d["mass_in_silo"][0] + d["discharged_mass"][0])
+        return d["t"], analysis.discharged_percentage(d["discharged_mass"], m0)
+
+    def _flow_snapshots(self) -> list[tuple[float, Path]]:
+        """(t, file) of the snapshots written during the discharge, in time order."""
         t0, t1 = self._stage_times().get("discharge", (np.inf, np.inf))
-        if snap is None or self.scene is None or not t0 < float(snap["t"]) <= t1 + 1e-9:
+        out = [(float(np.load(f)["t"]), f) for f in sorted((self.folder / "fields").glob("snapshot_*.npz"))]
+        return [(t, f) for t, f in out if t0 < t <= t1 + 1e-9]
+
+    def flow_channel(self) -> None:
+        """The flow-channel boundary (v_z = 0.001 × centreline v_z at the same height, ch. 6.4.3)
+        at the snapshots nearest to V_dis = 0.1, 3, 6, 10 % (Fig. 6-11; the last snapshot if the
+        run discharged less), its effective transition at each (flow_channel.csv)."""
+        import matplotlib.pyplot as plt
+
+        from silo_dolfinx.output.schema import FLOW_CHANNEL
+
+        snaps = self._flow_snapshots()
+        if self.scene is None or not snaps:
             self.missing.append("flow-channel boundary (needs a field snapshot during discharge)")
             return
-        xy, v = snap["node_xy"], snap["node_velocity"]
-        if np.nanmax(np.abs(v[:, 1])) == 0:
-            self.missing.append("flow-channel boundary (no flow in the last snapshot)")
-            return
+        vd = self._v_dis()
+        times = np.array([t for t, _ in snaps])
+        picks = []
+        if vd is not None:
+            for target in self.V_DIS:
+                tt = analysis.first_time_reaching(*vd, target)
+                if np.isfinite(tt):
+                    picks.append(int(np.argmin(np.abs(times - tt))))
+        picks = sorted(set(picks)) or [len(snaps) - 1]
         wall = self.scene.outline.wall
-        zs = np.linspace(0.02 * xy[:, 1].max(), 0.98 * xy[:, 1].max(), 60)
-        rw = wall.radius_at(zs)
-        frac = np.linspace(0.0, 1.0, 101)
-        R = rw[:, None] * frac[None, :]
-        Z = np.repeat(zs[:, None], frac.size, axis=1)
-        VZ = griddata(xy, v[:, 1], (R, Z), method="linear")
-        VZ = np.where(np.isnan(VZ), griddata(xy, v[:, 1], (R, Z), method="nearest"), VZ)
-        z_rows, r_fcb = analysis.flow_channel_boundary(R, Z, VZ, 1e-3)
         fig, ax = plt.subplots(figsize=(5, 8))
-        s = np.linspace(0, wall.length, 300)
-        wp = wall.point_at(s)
-        ax.plot(wp[:, 0], wp[:, 1], "k-", lw=1.5, label="wall")
-        ax.plot(np.where(np.isnan(r_fcb), rw, r_fcb), z_rows, "r.-", label="FCB, v_z = 0.001 × centreline")
+        sw = wall.point_at(np.linspace(0, wall.length, 300))
+        ax.plot(sw[:, 0], sw[:, 1], "k-", lw=1.5, label="wall")
+        rows = []
+        for i in picks:
+            snap = np.load(snaps[i][1])
+            xy, v = snap["node_xy"], snap["node_velocity"]
+            if np.nanmax(np.abs(v[:, 1])) == 0:
+                continue
+            z_rows, r_fcb, rw = analysis.flow_channel_from_nodes(xy, v[:, 1], wall.radius_at)
+            t = times[i]
+            v_here = float(np.interp(t, *vd)) if vd is not None else np.nan
+            et = analysis.effective_transition(z_rows, r_fcb, rw)
+            rows += [[v_here, t, z, r] for z, r in zip(z_rows, r_fcb)]
+            at = "" if vd is None else f" at V_dis {v_here:.2g} %"
+            ax.plot(np.where(np.isnan(r_fcb), rw, r_fcb), z_rows, ".-", ms=3, label=f"t = {t:.3g} s{at}")
+            self.numbers.append((f"effective transition (FCB meets the wall){at}",
+                                 "none (mass flow at every height)" if np.all(np.isnan(r_fcb)) else
+                                 ("does not meet the wall" if np.isnan(et) else f"{et:.3g} m")))
+        if not rows:
+            plt.close(fig)
+            self.missing.append("flow-channel boundary (no flow in the discharge snapshots)")
+            return
+        self._table(FLOW_CHANNEL, rows)
         ax.set_xlabel("r (m)")
         ax.set_ylabel("z (m)")
         ax.set_aspect("equal")
-        ax.legend(fontsize=8)
-        ax.set_title(f"t = {float(snap['t']):.3g} s")
-        self._save(fig, "flow_channel.png", "Flow-channel boundary at the last snapshot (ch. 6.4.3 criterion).")
-        et = analysis.effective_transition(z_rows, r_fcb, rw)
-        self.numbers.append(("effective transition (FCB meets the wall)",
-                             "none (mass flow at every height)" if np.isnan(et) and np.all(np.isnan(r_fcb)) else
-                             f"{et:.3g} m"))
+        ax.legend(fontsize=7)
+        self._save(fig, "flow_channel.png", "Flow-channel boundary (v_z = 0.001 × centreline, ch. 6.4.3) at "
+                   "successive discharged volumes (Fig. 6-11).")
 
     def _snapshot_times(self) -> list[float]:
         """The default times of the stress-field figures: the end of filling, the opening, 2 s

@@ -248,3 +248,20 @@ def test_rarefaction_growth_recovers_the_exponent_of_a_travelling_front():
     assert abs(analysis.rarefaction_growth(t, x, rigid, pull, fit).exponent / b - 1.0) < 0.02
     late = analysis.rarefaction_growth(t, x, rigid, analysis.Pull(0.02, 0.7 * c, L, 0.006), fit)
     assert abs(late.exponent / b - 1.0) > 0.1
+
+
+def test_discharged_volume_and_steady_flow_on_known_series():
+    """Eq. 6-2 in mass; the time a series first reaches a level (interpolated; nan if never);
+    the steady-flow start of a flow that ramps up over 3 s and then holds is the first whole
+    window at the constant rate (3 s), and a flow that keeps growing (at any
+    rate: its last windows drift) is never steady."""
+    t = np.linspace(0.0, 20.0, 4001)
+    rate = np.minimum(t / 3.0, 1.0) * 30.0
+    mass = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t))])
+    v = analysis.discharged_percentage(mass, 1000.0)
+    assert v[-1] == pytest.approx(100 * (30 * 20 - 45) / 1000, rel=1e-6)
+    assert analysis.first_time_reaching(t, v, 4.5) == pytest.approx(3.0, abs=1e-6)  # 45 kg at 3 s
+    assert np.isnan(analysis.first_time_reaching(t, v, 100.0))
+    assert analysis.steady_flow_start(t, mass, 1.0, 0.1) == pytest.approx(3.0)
+    growing = 0.5 * t ** 2
+    assert np.isnan(analysis.steady_flow_start(t, growing, 1.0, 0.1))

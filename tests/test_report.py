@@ -183,3 +183,62 @@ def test_report_measures_the_pulsing_of_known_wall_signals(synthetic):
     fill = 9000.0 * np.sin(np.pi * dp["z"] / 2.64) + 500.0
     assert dp["overpressure_10s"] == pytest.approx(dp["p_discharge_10s"] / fill, rel=1e-3)
     assert (synthetic / "wall_dynamics.png").is_file() and (synthetic / "discharge_pressures.png").is_file()
+
+
+@pytest.fixture
+def flat_bottom(tmp_path):
+    """A ch. 6 flat-bottomed silo (R 0.35 m) discharging 32 kg/s from 3,840 kg after a 1-s
+    start (V_dis 0.1 / 3 / 6 / 10 % at t = 0.49 / 4.1 / 7.7 / 12.5 s), with a Gaussian flow channel
+    v_z = −exp(−(r/b)²), b = b0 + 0.1 z, b0 = 0.02 + 0.002 V_dis (V_dis in %): its boundary
+    (0.001 of the centreline) lies at r = b √ln 1000 and meets the wall at z = (0.35/√ln 1000 −
+    b0)/0.1; snapshots at those four times."""
+    scene = load_scene(SCENES / "flat_bottom_ch6.toml")
+    d = tmp_path / "flat"
+    (d / "fields").mkdir(parents=True)
+    (d / "scene.toml").write_text(scene.to_toml())
+    stages = [{"name": "fill", "t_start": -3.0, "t_end": -1.0}, {"name": "store", "t_start": -1.0, "t_end": 0.0},
+              {"name": "discharge", "t_start": 0.0, "t_end": 20.0}]
+    (d / "summary.json").write_text(json.dumps({"status": "completed", "stages": stages}))
+    t = np.linspace(0.0, 20.0, 2001)
+    out = np.where(t < 1.0, 16.0 * t ** 2, 16.0 + 32.0 * (t - 1.0))  # flow ramps up over 1 s, then 32 kg/s
+    write_csv(d / "outlet.csv", ["t", "discharged_mass", "mass_in_silo", "mass_flow_rate", "mean_outlet_velocity"],
+              [[ti, m, 3840.0 - m, 0.0, 0.0] for ti, m in zip(t, out)])
+    R, Z = np.meshgrid(np.linspace(0.0, 0.35, 36), np.linspace(0.0, 4.0, 161))
+    xy = np.column_stack([R.ravel(), Z.ravel()])
+    for i, v in enumerate((0.1, 3.0, 6.0, 10.0)):
+        b = 0.02 + 0.002 * v + 0.1 * xy[:, 1]
+        vz = -np.exp(-((xy[:, 0] / b) ** 2))
+        m = v / 100 * 3840.0
+        tv = math.sqrt(m / 16.0) if m < 16.0 else 1.0 + (m - 16.0) / 32.0
+        np.savez(d / "fields" / f"snapshot_{i:04d}.npz", t=tv, node_xy=xy,
+                 node_velocity=np.column_stack([0 * vz, vz]))
+    return d
+
+
+def test_flow_channel_at_successive_discharged_volumes(flat_bottom):
+    """FCB at V_dis 0.1 / 3 / 6 / 10 % (Fig. 6-11) from the snapshots nearest to them: each
+    row's boundary within one node spacing (10 mm: linear interpolation of an exponential tail
+    between nodes) of r = b √ln 1000, the effective transition within one row spacing plus
+    that; V_dis at the end 100·(16 + 32·19)/3840 = 16.25 %; steady flow from t = 1 s (the
+    first whole 1-s window at the constant rate)."""
+    from silo_dolfinx.report import Report
+
+    rep = Report(flat_bottom)
+    rep.flow_channel()
+    rep.outlet()
+    f = read_csv(flat_bottom / "flow_channel.csv")
+    assert np.allclose(np.unique(np.round(f["v_dis"], 6)), [0.1, 3.0, 6.0, 10.0])
+    root = math.sqrt(math.log(1000.0))
+    for v in (0.1, 3.0, 6.0, 10.0):
+        m = np.isclose(f["v_dis"], v)
+        b = 0.02 + 0.002 * v + 0.1 * f["z"][m]
+        inside = b * root < 0.35 - 0.01
+        assert np.all(np.abs(f["r_fcb"][m][inside] - b[inside] * root) <= 0.01)
+        z_et = (0.35 / root - 0.02 - 0.002 * v) / 0.1
+        row = 0.96 * 4.0 / 59
+        et = dict(rep.numbers)[f"effective transition (FCB meets the wall) at V_dis {v:.2g} %"]
+        assert abs(float(et.split()[0]) - z_et) <= row + 0.01 / (0.1 * root), (v, et, z_et)
+    nums = dict(rep.numbers)
+    assert nums["discharged V_dis (eq. 6-2, in mass) at the end"] == "16.2 %"
+    steady = [v for k, v in nums.items() if k.startswith("steady flow from")][0]
+    assert steady.startswith("t = 1 s"), steady

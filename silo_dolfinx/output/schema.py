@@ -146,8 +146,16 @@ RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a control
       "(theory.taper_wave_growth: G^(k μ/tan α − 1)); equals `predicted` for a parallel column"),
 ))
 
+FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a discharge with field snapshots: the "
+                       "flow-channel boundary (v_z = 0.001 × the centreline v_z at the same height, ch. 6.4.3) at the "
+                       "snapshots nearest to V_dis = 0.1, 3, 6, 10 % (or the last one).", (
+    C("v_dis", "%", "discharged volume at the snapshot (eq. 6-2, in mass)"), T,
+    C("z", "m", "height"),
+    C("r_fcb", "m", "radius of the boundary (empty: the whole section flows)"),
+))
+
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,
-                              DISCHARGE_PRESSURES, WALL_DYNAMICS, RAREFACTION)
+                              DISCHARGE_PRESSURES, WALL_DYNAMICS, RAREFACTION, FLOW_CHANNEL)
 
 
 def for_file(filename: str) -> CsvFile | None:

@@ -304,7 +304,7 @@ def _front_of_1d_taper_model(D, mu, k, alpha, x_probe, u0=0.05, rho=1500.0, M=2.
 def test_taper_wave_growth_is_what_the_1d_slice_model_gives(alpha):
     """The closed form of theory.taper_wave_growth against integrating its 1-D model
     (ρ w_t = −s_x − a s, s_t = −M(w_x + b w)) on a 1-mm grid: the front's σ⁺/σ⁺0 at 1–4 m
-    within 2 % (the integration's own error: 0.7 % at α = 0 on this grid, 0.4 % on a
+    within 2 % (the integration's own error: ≤ 1.2 % on this grid, 0.4 % at α = 0 on a
     0.5-mm one – the 4-cm ramp is not a sharp front). The thesis' eq. 5-14/5-15 differs from the
     same model by its area term (+k for −1): at α = ±3° by more than 10 % at 4 m."""
     x = np.array([1.0, 2.0, 3.0, 4.0])

@@ -56,3 +56,35 @@ def test_results_reference_is_the_schema(capsys, comm):
     assert out == (Path(__file__).resolve().parents[1] / "docs" / "results.md").read_text()
     for f in schema.FILES:
         assert all(f"| `{c}` |" in out for c in f.names), f.pattern
+
+
+def test_progress_eta_follows_the_recent_pace():
+    """A run that simulated 10 s at 1 s per wall-clock second and then slows to 0.1 s per
+    second: after a few lines at the slow pace the ETA for the last 10 s is ~100 s (the recent
+    pace), not the ~20 s the average since the start would give. Clock and time are fed in."""
+    import io
+
+    from mpi4py import MPI
+
+    from silo_dolfinx.output import writer
+
+    clock = [0.0]
+    real = writer.time.time
+    writer.time.time = lambda: clock[0]
+    try:
+        out = io.StringIO()
+        p = writer.Progress(MPI.COMM_SELF, 30.0, every=1.0, stream=out)
+        t = 0.0
+        for _ in range(10):  # fast: 1 s simulated per second
+            p("fill", t, int(t * 100), 0.01)
+            clock[0] += 1.0
+            t += 1.0
+        for _ in range(10):  # slow: 0.1 s per second
+            p("discharge", t, int(t * 100), 0.001)
+            clock[0] += 1.0
+            t += 0.1
+        p("discharge", t, int(t * 100), 0.001)
+    finally:
+        writer.time.time = real
+    eta = out.getvalue().strip().splitlines()[-1].split("ETA ")[1]
+    assert eta.startswith("3m"), eta  # (30 − 11) s at 0.1 s/s = 190 s; since the start: 0m34s

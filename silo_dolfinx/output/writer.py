@@ -146,7 +146,14 @@ def _json_default(o):
 
 
 class Progress:
-    """Progress lines on rank 0: stage, simulated time, steps/s, ETA (every ``every`` seconds)."""
+    """Progress lines on rank 0: stage, simulated time, steps/s, ETA (every ``every`` seconds).
+
+    Rates are those of the recent past (an exponential average over the last few lines, half
+    weight to the newest interval), not since the start: a run's pace changes between stages
+    (a discharge's Δt is smaller than the fill's), and an ETA from the average since the start
+    would promise the fill's pace for the discharge."""
+
+    SMOOTHING = 0.5  # weight of the newest interval in the running rates
 
     def __init__(self, comm, total_time: float, every: float = 5.0, stream=None):
         import sys
@@ -155,21 +162,23 @@ class Progress:
         self.total = total_time
         self.every = every
         self.stream = stream or sys.stderr
-        self._t0 = time.time()
-        self._last = self._t0
-        self._sim0 = None
-        self._steps0 = 0
+        self._last = time.time()
+        self._sim_last = None
+        self._steps_last = 0
+        self._rates = None  # (steps/s, simulated s per wall-clock s)
 
     def __call__(self, stage: str, t: float, steps: int, dt: float, force: bool = False) -> None:
         now = time.time()
-        if self._sim0 is None:
-            self._sim0, self._steps0 = t, steps
+        if self._sim_last is None:
+            self._sim_last, self._steps_last = t, steps
         if not self.root or (not force and now - self._last < self.every):
             return
-        self._last = now
-        elapsed = now - self._t0
-        rate = (steps - self._steps0) / max(elapsed, 1e-9)
-        sim_rate = (t - self._sim0) / max(elapsed, 1e-9)
+        span = max(now - self._last, 1e-9)
+        new = ((steps - self._steps_last) / span, (t - self._sim_last) / span)
+        w = self.SMOOTHING
+        self._rates = new if self._rates is None else tuple(w * a + (1 - w) * b for a, b in zip(new, self._rates))
+        self._last, self._sim_last, self._steps_last = now, t, steps
+        rate, sim_rate = self._rates
         eta = (self.total - t) / sim_rate if sim_rate > 0 else float("inf")
         print(f"[{stage}] t = {t:.4g} / {self.total:.4g} s | step {steps:,} | Δt {dt:.3g} s | "
               f"{rate:,.0f} steps/s | ETA {_hms(eta)}", file=self.stream, flush=True)

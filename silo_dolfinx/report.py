@@ -685,7 +685,7 @@ class Report:
         m0 = float(d["mass_in_silo"][0] + d["discharged_mass"][0])
         return d["t"], analysis.discharged_percentage(d["discharged_mass"], m0)
 
-    def _flow_snapshots(self) -> list[tuple[float, Path]]:
+    def flow_snapshots(self) -> list[tuple[float, Path]]:
         """(t, file) of the snapshots written during the discharge, in time order."""
         t0, t1 = self._stage_times().get("discharge", (np.inf, np.inf))
         out = [(float(np.load(f)["t"]), f) for f in sorted((self.folder / "fields").glob("snapshot_*.npz"))]
@@ -699,7 +699,7 @@ class Report:
 
         from silo_dolfinx.output.schema import FLOW_CHANNEL
 
-        snaps = self._flow_snapshots()
+        snaps = self.flow_snapshots()
         if self.scene is None or not snaps:
             self.missing.append("flow-channel boundary (needs a field snapshot during discharge)")
             return

@@ -70,9 +70,9 @@ WALL_PROFILE = CsvFile("wall_profile_<stage>.csv", "Every wall node at the end o
     C("in_contact", "-", "1 if the node touches the wall, else 0"),
 ))
 
-POINT_HISTORY = CsvFile("point_history.csv", "Stress at the interior points (output.points; fixed in space or, "
+POINT_HISTORY = CsvFile("point_history.csv", "Stress and velocity at the interior points (output.points; fixed in space or, "
                         "with output.point_motion = \"material\", moving with the solid from the opening) at "
-                        "the history rate: the mean of the cell containing each point (empty while it is in no "
+                        "the history rate: the means over the cell containing each point (empty while it is in no "
                         "active cell).", (
     T, C("point", "-", "point index (output.points order)"),
     C("r", "m", "radius of the point (material points: where it is now)"), C("z", "m", "height of the point"),
@@ -80,6 +80,8 @@ POINT_HISTORY = CsvFile("point_history.csv", "Stress at the interior points (out
     C("stress_tt", "Pa", "hoop stress"), C("stress_rz", "Pa", "shear stress"),
     C("p", "Pa", "mean pressure −tr σ/3 (compression +)"), C("q", "Pa", "√(3 J2)"),
     C("q_over_p", "-", "stress ratio q/p"),
+    C("v_r", "m/s", "radial velocity: the mean of the cell's four nodes"),
+    C("v_z", "m/s", "vertical velocity (up +): the mean of the cell's four nodes"),
 ))
 
 OUTLET = CsvFile("outlet.csv", "The outlet during the discharge, at the history rate.", (

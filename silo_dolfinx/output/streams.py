@@ -163,8 +163,9 @@ class PointHistory:
         return cell, pos
 
     def values(self) -> np.ndarray:
-        """(n_points, 6): position and cell-mean stress of every point, NaN where no active cell
-        holds one (collective: the lowest rank that finds a point supplies it)."""
+        """(n_points, 8): position, cell-mean stress and cell-mean velocity (the mean of the
+        cell's four nodes) of every point, NaN where no active cell holds one (collective: the
+        lowest rank that finds a point supplies it)."""
         s, comm = self.model.solver, self.model.sm.comm
         self._x[:] = self.model.sm.mesh.geometry.x[:, :2]
         cell, pos = self._cells()
@@ -176,9 +177,10 @@ class PointHistory:
         mine = found & (owner == comm.rank)
         sig = s.sig.reshape(-1, s.nq, 4)[at[mine]]
         w = s.dV.reshape(-1, s.nq)[at[mine]]
-        out = np.zeros((self.points.shape[0], 6))
+        out = np.zeros((self.points.shape[0], 8))
         out[mine, :2] = pos[mine]
-        out[mine, 2:] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
+        out[mine, 2:6] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
+        out[mine, 6:] = s.nodes.v[s.node_dof[self.cn[cell[mine]]]].mean(axis=1)
         comm.Allreduce(MPI.IN_PLACE, out, op=MPI.SUM)
         out[owner == comm.size] = np.nan
         if self.follower is None:
@@ -191,11 +193,11 @@ class PointHistory:
         if self.material and self.follower is None and stage == "discharge":
             self.follower = self._seed()
         v = self.values()
-        p, q = p_q(v[:, 2:])
+        p, q = p_q(v[:, 2:6])
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(p > 1e-9, q / p, np.nan)
         t = self.model.solver.t
-        self.csv.write(*[[t, k, *v[k], p[k], q[k], ratio[k]] for k in range(len(self.points))])
+        self.csv.write(*[[t, k, *v[k, :6], p[k], q[k], ratio[k], *v[k, 6:]] for k in range(len(self.points))])
 
     def _seed(self):
         """The material points, seeded where the fixed points are now."""

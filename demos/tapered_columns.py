@@ -68,11 +68,29 @@ QUICK = ["FE-1", "FE-2", "α -3°", "α +3°", "hopper 22°"]
 RUN = args.cases.split(",") if args.cases else (QUICK if args.quick else list(CASES))
 if unknown := set(RUN) - set(CASES):
     raise SystemExit(f"--cases: unknown {sorted(unknown)}; choose from {', '.join(CASES)}")
+# Figs. 5-8 and 5-15 draw v_z and σ_zz across the column at h = 1.5, 2.5, 3.5, 4.5 m as the
+# wave arrives: FE-1 and the 22° hopper get points across the radius at those heights too
+# (the report's growth uses the axis points only).
+PROFILE_HEIGHTS = (1.5, 2.5, 3.5, 4.5)
+PROFILE_FRACTIONS = (0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.97)
+
+
+def profile_points(case):
+    if case not in ("FE-1", "hopper 22°"):
+        return []
+    sc = load_scene(HERE / "scenes" / f"{CASES[case]}.toml", OVERRIDES)
+    axis = [list(p) for p in sc.output.points]
+    across = [[round(f * float(sc.outline.wall.radius_at(np.array([z]))[0]), 4), z]
+              for z in PROFILE_HEIGHTS for f in PROFILE_FRACTIONS]
+    return [f"output.points={axis + across}"]
+
+
 for case in RUN:
     if args.reuse:
         break
     say(f"--- {case}: {CASES[case]}")
-    run(load_scene(HERE / "scenes" / f"{CASES[case]}.toml", OVERRIDES), OUT / CASES[case], comm)
+    run(load_scene(HERE / "scenes" / f"{CASES[case]}.toml", OVERRIDES + profile_points(case)), OUT / CASES[case],
+        comm)
     comm.barrier()
 # -
 
@@ -198,4 +216,51 @@ if comm.rank == 0:
     fig.tight_layout()
     fig.savefig(OUT / "growth.png", dpi=110)
     print(f"{OUT / 'growth.png'}: tapered growth curves, S0 and exponents against α; {OUT / 'growth_fe.png'}: Table 5-2")
+# -
+
+# ## Across the column as the wave arrives (Figs. 5-8, 5-15)
+#
+# At each height, the moment the front has passed (the pull's start + z/c + its 5-ms rise):
+# the downward velocity over u0 and the relief of σ_zz over σ⁺0 at the points across the
+# radius. A parallel column keeps both nearly uniform (the 1-D theory's assumption); the
+# 22° hopper does not.
+
+# +
+if comm.rank == 0:
+    cases = [c for c in ("FE-1", "hopper 22°") if c in res]
+    fig, ax = plt.subplots(2, max(len(cases), 1), figsize=(6 * max(len(cases), 1), 8), squeeze=False)
+    for j, c in enumerate(cases):
+        d, sc = res[c], res[c]["sc"]
+        hist = read_csv(OUT / CASES[c] / "point_history.csv")
+        m = sc.material
+        cw = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density)
+        t_pull = next(st["t_start"] for st in d["summary"]["stages"] if st["name"] == "discharge")
+        u0 = sc.discharge.velocity
+        s0 = m.density * cw * u0
+        ids = np.unique(hist["point"])
+        for zh in PROFILE_HEIGHTS:
+            at = [k for k in ids if abs(hist["z"][hist["point"] == k][0] - zh) < 1e-9]
+            if len(at) < 3:
+                continue
+            t_a = t_pull + zh / cw + 0.005
+            r, v, rel = [], [], []
+            for k in at:
+                row = hist["point"] == k
+                t = hist["t"][row]
+                r.append(hist["r"][row][0])
+                v.append(-np.interp(t_a, t, hist["v_z"][row]) / u0)
+                szz = hist["stress_zz"][row]
+                rel.append((np.interp(t_a, t, szz) - np.interp(t_pull, t, szz)) / s0)
+            o = np.argsort(r)
+            ax[0, j].plot(np.array(r)[o], np.array(v)[o], "o-", ms=3, label=f"z = {zh:g} m")
+            ax[1, j].plot(np.array(r)[o], np.array(rel)[o], "o-", ms=3, label=f"z = {zh:g} m")
+        ax[0, j].set_title(f"{c}: downward v_z / u0 as the wave arrives")
+        ax[1, j].set_title(f"{c}: relief of σ_zz / σ⁺0")
+        for a in ax[:, j]:
+            a.set_xlabel("r (m)")
+            a.grid(alpha=0.3)
+            a.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(OUT / "profiles.png", dpi=110)
+    print(f"{OUT / 'profiles.png'}: Figs. 5-8 / 5-15")
 # -

@@ -464,6 +464,7 @@ class Report:
         h = read_csv(self.folder / "point_history.csv")
         if sc is None or sc.geometry.shape != "column" or sc.discharge.mode != "controlled" or h is None:
             return None  # not a ch. 5 column: nothing is missing
+        h = {k: v[h["r"] == 0.0] for k, v in h.items()}  # the axis points (others: profiles)
         import matplotlib.pyplot as plt
 
         from silo_dolfinx.output.schema import RAREFACTION

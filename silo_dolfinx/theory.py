@@ -317,6 +317,19 @@ def wensrich_exponent(diameter: float, mu: float, k: float) -> float:
     return 2.0 * mu * k / diameter
 
 
+def _wave_inputs(x, diameter: float, mu: float, k: float, half_angle: float):
+    """The ch. 5 growth laws' checked inputs: (x as an array, eq. 5-1's σ⁺/σ⁺0 if α = 0 else None)."""
+    import numpy as np
+
+    _positive(diameter=diameter, mu=mu, k=k)
+    x = _nonneg_array("x", x)
+    if half_angle == 0.0:
+        return x, np.exp(x * wensrich_exponent(diameter, mu, k))
+    if not -45.0 < half_angle < 45.0:
+        raise ValueError(f"half_angle = {half_angle!r}: must be in (-45, 45) degrees (small-angle theory)")
+    return x, None
+
+
 def wave_growth(x, diameter: float, mu: float, k: float, half_angle: float = 0.0):
     """σ⁺/σ⁺0 of a small rarefaction wave after travelling x (m) up a column of base
     diameter D with wall friction μ and lateral ratio k (ch. 5):
@@ -329,12 +342,9 @@ def wave_growth(x, diameter: float, mu: float, k: float, half_angle: float = 0.0
     diverging, below the apex (2x sin|α| < D)."""
     import numpy as np
 
-    _positive(diameter=diameter, mu=mu, k=k)
-    x = _nonneg_array("x", x)
-    if half_angle == 0.0:
-        return np.exp(x * wensrich_exponent(diameter, mu, k))
-    if not -45.0 < half_angle < 45.0:
-        raise ValueError(f"half_angle = {half_angle!r}: must be in (-45, 45) degrees (small-angle theory)")
+    x, parallel = _wave_inputs(x, diameter, mu, k, half_angle)
+    if parallel is not None:
+        return parallel
     a = math.radians(abs(half_angle))
     if half_angle > 0:
         return (1.0 + 2.0 * x * math.sin(a) / diameter) ** (k * (1.0 + mu / math.tan(a)))
@@ -367,12 +377,9 @@ def taper_wave_growth(x, diameter: float, mu: float, k: float, half_angle: float
     this has −1). Small |α|; diverging (α < 0) only below the apex (2x tan|α| < D)."""
     import numpy as np
 
-    _positive(diameter=diameter, mu=mu, k=k)
-    x = _nonneg_array("x", x)
-    if half_angle == 0.0:
-        return np.exp(x * wensrich_exponent(diameter, mu, k))
-    if not -45.0 < half_angle < 45.0:
-        raise ValueError(f"half_angle = {half_angle!r}: must be in (-45, 45) degrees (small-angle theory)")
+    x, parallel = _wave_inputs(x, diameter, mu, k, half_angle)
+    if parallel is not None:
+        return parallel
     t = math.tan(math.radians(half_angle))
     G = 1.0 + 2.0 * x * t / diameter
     if np.any(G <= 0):

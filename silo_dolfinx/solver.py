@@ -47,6 +47,7 @@ from silo_dolfinx.materials.base import Material
 from silo_dolfinx.state import Energy, NodalData, QuadratureData
 
 REJECT_TOLERANCE = 0.05
+EMPTIED = 0.25  # a cell below this fraction of the solid's density has emptied (Δt diagnosis)
 
 
 class InstabilityError(RuntimeError):
@@ -60,11 +61,13 @@ class Numerics:
     mass_scaling: float = 1.0
     bbar: bool = True
     damping: float = 0.0  # initial mass-proportional damping α (1/s), f = −α M v; stages declare theirs
+    min_time_step_fraction: float = 0.0  # stop when the stable Δt falls below this × its reference (0: never)
 
     @classmethod
     def from_scene(cls, scene) -> Numerics:
         n = scene.numerics
-        return cls(n.time_step_scale, tuple(n.bulk_viscosity), n.mass_scaling)
+        return cls(n.time_step_scale, tuple(n.bulk_viscosity), n.mass_scaling,
+                   min_time_step_fraction=n.min_time_step_fraction)
 
 
 @dataclass
@@ -123,6 +126,7 @@ class ExplicitSolver:
         self.energy_scale = 0.0
         self.t, self.steps, self.rejected = 0.0, 0, 0
         self.dt_prev, self.dt, self.dt_crit = 0.0, 0.0, math.inf
+        self.dt_reference = 0.0  # the stable Δt at the last activation ([numerics] min_time_step_fraction)
         self._increment = (0.0, 0.0, 0.0)  # (plastic, viscous, internal work) of the last step
         self._active = None
         self.timings: dict[str, float] = {}
@@ -175,6 +179,7 @@ class ExplicitSolver:
         self._coeffs = {key: self.q.packed}
         self._active_nodes = np.ascontiguousarray(self.cell_nodes[cells])
         self._update_stable_dt()
+        self.dt_reference = self.dt_crit  # what Δt may fall from: a remap does not reset it
         self.rebuild_mass()
         self.refresh_force()
 
@@ -286,15 +291,45 @@ class ExplicitSolver:
         if not (dt_crit > 1e-6 * self._dt_crit0 and math.isfinite(dt_crit)):
             np.copyto(self.mesh.geometry.x, self._x_old)
             raise InstabilityError(self._collapse_message(dt_crit))
+        if dt_crit < num.min_time_step_fraction * self.dt_reference:
+            raise InstabilityError(self._fall_message(dt_crit))
         return dt_crit
 
+    def _fall_message(self, dt_crit: float) -> str:
+        """Why Δt fell below [numerics] min_time_step_fraction of its reference: the cell that
+        limits it (collective), and what to do about it."""
+        trd, L, c, rho = self.q.cells.arrays
+        dt = L / c
+        i = int(np.argmin(dt)) if dt.size else -1
+        r, z = self.mesh.geometry.x[self._active_nodes[i], :2].mean(axis=0) if i >= 0 else (np.nan, np.nan)
+        mine = (float(dt[i]) if i >= 0 else np.inf, float(rho[i]) if i >= 0 else np.nan, float(r), float(z))
+        _, rho_c, r, z = min(self.comm.allgather(mine))
+        rho0 = self.material.density
+        head = (f"the stable Δt fell to {dt_crit:.3g} s at t = {self.t:.6g} s, below [numerics] "
+                f"min_time_step_fraction = {self.numerics.min_time_step_fraction:g} of its {self.dt_reference:.3g} s; "
+                f"the cell that limits it is at r = {r:.3g} m, z = {z:.3g} m with density {rho_c:.4g} kg/m³ "
+                f"({100 * rho_c / rho0:.0f} % of the solid's {rho0:g}). ")
+        if rho_c < EMPTIED * rho0:
+            why = ("It has emptied: the solid there is pulled apart (the wave speed of a cell grows as its density "
+                   "falls). Over an outlet this is an arch - the solid above holds while the outlet drains the "
+                   "cells below it; a cone matched in compression (material.cone, docs/material.md) carries "
+                   "equal-biaxial compression with no cohesion once φ > 36.87°, and is much stronger in extension "
+                   "than a Mohr-Coulomb solid, so such arches hold. Fix: material.cone = \"extension\" for a "
+                   "discharge, a wider outlet, or (to run on regardless) a smaller min_time_step_fraction.")
+        else:
+            why = (f"It has not emptied: a cell is being crushed or distorted: {self._distortion_hint()} (Or lower "
+                   "min_time_step_fraction to run on.)")
+        return head + why
+
     def _collapse_message(self, dt_crit: float) -> str:
-        scale = self.numerics.time_step_scale
-        hint = (f"[numerics] time_step_scale = {scale:g} exceeds the stability limit: use 0.9 or less."
-                if scale > 0.9 else "the mesh is tangled by large deformation: enable [ale], or refine where it "
-                "distorts.")
         return (f"an element collapsed at step {self.steps} (t = {self.t:.6g} s; stable Δt fell from "
-                f"{self._dt_crit0:.3g} to {dt_crit:.3g} s): {hint}")
+                f"{self._dt_crit0:.3g} to {dt_crit:.3g} s): {self._distortion_hint()}")
+
+    def _distortion_hint(self) -> str:
+        scale = self.numerics.time_step_scale
+        return (f"[numerics] time_step_scale = {scale:g} exceeds the stability limit: use 0.9 or less."
+                if scale > 0.9 else "the mesh is tangled by large deformation: enable [ale] or smooth more often "
+                "(ale.frequency), or refine where it distorts.")
 
     def _reject(self, dt_crit: float) -> None:
         """Undo the trial step (x, v of t_n) and retry with the Δt the new configuration allows."""

@@ -233,7 +233,7 @@ MATERIAL = Section(
               "at which dilation stops (ψ → 0; a sheared sand reaches its critical void ratio). "
               "0.05 is the dilation of a loosely poured sand (relative density ≈ 37 %, Toyoura "
               "void ratios) to its critical void ratio at silo stresses; 0.036-0.10 spans relative "
-              "densities 30-60 % (README, 'Friction angles'). 0 = dilation never stops (the "
+              "densities 30-60 % (docs/material.md). 0 = dilation never stops (the "
               "thesis' Drucker-Prager: the density near an outlet then keeps falling).", **NONNEG),
         ),
     },
@@ -339,6 +339,10 @@ NUMERICS = Section(
             "coefficients; [0, 0] switches it off.", lo=0.0, length=2),
         F("mass_scaling", 1.0, "-", "Factor on the inertial mass (Δt grows with its square root); "
           "1 = none.", lo=1.0),
+        F("min_time_step_fraction", 0.01, "-", "Stop with a diagnosis (the limiting cell, its density, the "
+          "likely cause and fix) when the stable Δt falls below this fraction of its value when the "
+          "cells were last activated (a remap does not reset it): an arch over the outlet empties the "
+          "cells below it and Δt falls towards zero. 0 = never stop.", lo=0.0, hi=1.0, hi_open=True),
     ),
 )
 

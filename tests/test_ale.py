@@ -193,6 +193,32 @@ def test_zero_motion_is_the_identity(comm):
     assert np.allclose(v, [0.1, -0.2], rtol=1e-12, atol=0)
 
 
+def test_a_motion_too_large_to_sub_cycle_is_refused_untouched(comm):
+    """The remap sub-cycles a motion at Courant 0.5; one that sweeps a cell's volume more than
+    MAX_SUBSTEPS × 0.5 times over (here a shear of 40 cells' widths) is refused with its size -
+    never sub-cycled for minutes (the hang the hard-case issue found) - and the state is left as
+    it was; the ALE stage turns it into an InstabilityError naming ale.frequency. A shear of one
+    cell width remaps (it needs 2-3 sub-steps)."""
+    from silo_dolfinx.ale.remap import MAX_SUBSTEPS, SweptTooFar
+
+    m, _, Remapper = _rectangle(comm, 12)
+    R = Remapper(m, None, 2)
+    X = m.geometry.x.copy()
+    no = R.n_owned
+    rho, q, v = np.ones(no), np.ones((no, 1)), np.zeros((X.shape[0], 2))
+    inner = (X[:, 0] > 0.2 + 1e-9) & (X[:, 0] < 1.2 - 1e-9) & (X[:, 1] > 1e-9) & (X[:, 1] < 1 - 1e-9)
+    for widths, refused in ((40.0, True), (1.0, False)):
+        xb = X.copy()
+        xb[inner, 1] += widths / 12 * np.sin(np.pi * X[inner, 1]) * np.sin(np.pi * (X[inner, 0] - 0.2))
+        if refused:
+            with pytest.raises(SweptTooFar, match=f"more than {MAX_SUBSTEPS} sub-steps"):
+                R.remap(X, xb, rho, q, v)
+            assert np.all(rho == 1.0) and np.all(q == 1.0)
+        else:
+            rep = R.remap(X, xb, rho, q, v)
+            assert 1 < rep.substeps <= MAX_SUBSTEPS
+
+
 # ---------------------------------------------------------------------------- smoothing alone
 
 def _smoothed_hopper(comm):

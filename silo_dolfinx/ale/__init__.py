@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from mpi4py import MPI
 
-from silo_dolfinx.ale.remap import RemapReport, Remapper, cell_state, cell_volume_density, redistribute
+from silo_dolfinx.ale.remap import (RemapReport, Remapper, SweptTooFar, cell_state, cell_volume_density,
+                                    redistribute)
 from silo_dolfinx.geometry.cells import qp_volumes, tensor_nodes
 from silo_dolfinx.ale.smoothing import Smoother
 from silo_dolfinx.ale.tracers import Tracers
@@ -136,7 +137,14 @@ class ALE:
         before = s.mechanical_energy_local(increment=self._dsig)  # and the last step's stress increment
         elastic_density = self._elastic_per_mass()  # J/kg of the outlet cells, for what flows out
 
-        rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
+        try:
+            rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
+        except SweptTooFar as err:  # the state is untouched: the run stops where it is, its results readable
+            from silo_dolfinx.solver import InstabilityError
+
+            raise InstabilityError(f"at t = {s.t:.6g} s {err}: the mesh has drifted far from the material "
+                                   f"(Δt {s.dt:.3g} s, {self.frequency} steps per remap). Fix: [ale] frequency "
+                                   "smaller (remap more often), or see the Δt diagnosis if Δt has fallen.") from err
         t2 = time.perf_counter()
 
         # write back: mesh, quadrature data, velocity; rebuild what depends on them

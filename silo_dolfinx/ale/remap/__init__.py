@@ -66,8 +66,13 @@ from silo_dolfinx.ale.remap.quadrature import cell_state, cell_volume_density, r
 from silo_dolfinx.geometry.cells import CYCLE, orientation, tensor_nodes
 
 COURANT = 0.5  # largest fraction of a cell's volume that one sub-step may move out of it
+MAX_SUBSTEPS = 64  # a motion that needs more sub-steps is refused (SweptTooFar), never sub-cycled for ever
 
-__all__ = ["CLOSED", "COURANT", "OUTSIDE", "RemapReport", "Remapper", "cell_state", "cell_volume_density",
+
+class SweptTooFar(RuntimeError):
+    """The mesh motion sweeps a cell's volume MAX_SUBSTEPS × COURANT times over in one remap."""
+
+__all__ = ["CLOSED", "COURANT", "MAX_SUBSTEPS", "OUTSIDE", "RemapReport", "Remapper", "SweptTooFar", "cell_state", "cell_volume_density",
            "corner_integrals", "redistribute"]
 
 
@@ -209,6 +214,9 @@ class Remapper:
         report = RemapReport()
         c = self.courant(x0, x1)  # leaves the geometry of the whole motion in the work arrays
         report.courant = c
+        if not c <= MAX_SUBSTEPS * COURANT:  # also NaN
+            raise SweptTooFar(f"the smoothed mesh moved {c:.3g} cell volumes out of a cell in one remap (more than "
+                              f"{MAX_SUBSTEPS} sub-steps at Courant {COURANT})")
         n = max(1, int(math.ceil(c / COURANT)))
         report.substeps = n
         k = q.shape[1]

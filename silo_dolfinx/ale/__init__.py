@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from mpi4py import MPI
 
-from silo_dolfinx.ale.remap import (RemapReport, Remapper, SweptTooFar, cell_state, cell_volume_density,
+from silo_dolfinx.ale.remap import (RemapError, RemapReport, Remapper, cell_state, cell_volume_density,
                                     redistribute)
 from silo_dolfinx.geometry.cells import qp_volumes, tensor_nodes
 from silo_dolfinx.ale.smoothing import Smoother
@@ -139,7 +139,7 @@ class ALE:
 
         try:
             rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
-        except SweptTooFar as err:  # the state is untouched: the run stops where it is, its results readable
+        except RemapError as err:  # on every rank: the run stops where it is, its results readable
             from silo_dolfinx.solver import InstabilityError
 
             raise InstabilityError(f"at t = {s.t:.6g} s {err}: the mesh has drifted far from the material "

@@ -9,6 +9,7 @@ streams (:mod:`silo_dolfinx.output.streams`) and runs the stages. The loop itsel
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -35,6 +36,7 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> di
     results = Results(out, scene, comm)
     wall0 = time.time()
     model = None
+    guard = comm.Dup()  # for the error check below: independent of any collective left hanging on comm
     try:
         sm = mesh_scene(scene, comm)
         _mesh_record(scene, sm, results)
@@ -48,14 +50,39 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> di
         _finish(model, results, stages, wall0)
     except InstabilityError as err:
         results.finish("failed", str(err))
+        _all_ranks_or_abort(guard, err)
         raise
     except BaseException as err:
         results.finish("failed", f"{type(err).__name__}: {err}")
+        _all_ranks_or_abort(guard, err)
         raise
     finally:
         if model is not None and model.outputs is not None:
             model.outputs.close()
+        guard.Free()
     return results.summary
+
+
+RANK_ERROR_WAIT = 30.0  # s: how long a failed rank waits for the others before it aborts them all
+
+
+def _all_ranks_or_abort(guard, err: BaseException, wait: float | None = None) -> None:
+    """After an error on this rank: return if every rank reaches this point within ``wait`` s (the
+    error was collective: the run stops cleanly, its outputs closed); otherwise the error was this
+    rank's alone and the others wait in a collective that will never complete - print the error
+    and abort every rank, rather than hang silently. (What the streams have flushed stays.)"""
+    if guard.size == 1:
+        return
+    wait = RANK_ERROR_WAIT if wait is None else wait
+    req = guard.Ibarrier()
+    t0 = time.time()
+    while not req.Test():
+        if time.time() - t0 > wait:
+            sys.stderr.write(f"[rank {guard.rank}] {type(err).__name__}: {err}\n[rank {guard.rank}] the other ranks did "
+                             f"not stop within {wait:g} s (the error was this rank's alone): aborting all ranks\n")
+            sys.stderr.flush()
+            guard.Abort(1)
+        time.sleep(0.02)
 
 
 def _mesh_record(scene, sm, results: Results) -> None:

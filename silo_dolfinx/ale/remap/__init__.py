@@ -69,10 +69,14 @@ COURANT = 0.5  # largest fraction of a cell's volume that one sub-step may move 
 MAX_SUBSTEPS = 64  # a motion that needs more sub-steps is refused (SweptTooFar), never sub-cycled for ever
 
 
-class SweptTooFar(RuntimeError):
+class RemapError(RuntimeError):
+    """The remap cannot carry the state to the smoothed mesh (raised on every rank alike)."""
+
+
+class SweptTooFar(RemapError):
     """The mesh motion sweeps a cell's volume MAX_SUBSTEPS × COURANT times over in one remap."""
 
-__all__ = ["CLOSED", "COURANT", "MAX_SUBSTEPS", "OUTSIDE", "RemapReport", "Remapper", "SweptTooFar", "cell_state", "cell_volume_density",
+__all__ = ["CLOSED", "COURANT", "MAX_SUBSTEPS", "OUTSIDE", "RemapError", "RemapReport", "Remapper", "SweptTooFar", "cell_state", "cell_volume_density",
            "corner_integrals", "redistribute"]
 
 
@@ -280,8 +284,8 @@ class Remapper:
             fmass[:] = low[:, 0]
         mnew[:] = E[:, 0]
         lo.outflow(faces, fmass, out_cells)
-        if mnew.min(initial=0.0) < 0.0:
-            raise FloatingPointError("remap produced a negative cell mass (Courant condition violated)")
+        if reduce_scalar(self.comm, float(mnew.min(initial=0.0)), MPI.MIN) < 0.0:  # every rank stops alike
+            raise RemapError("the remap produced a negative cell mass (a cell swept out faster than its own volume)")
         lo.divide(mnew, self._vol1, rho_old, rho_new)
 
         # stage 2: intensive variables, mass-weighted, with the final mass fluxes; columns 1..k

@@ -266,6 +266,37 @@ def test_smoothing_boundary_rules_and_rank_independence(comm):
         assert np.abs(xs - serial).max() < 1e-12
 
 
+def test_a_poor_cell_backs_off_only_its_own_nodes(comm):
+    """A smoothing that would invert a cell near the top of the wall (an interior node of the
+    smoothed sagged hopper thrown across its neighbours, as a cell hung up on a rough wall) is
+    scaled back towards the Lagrangian mesh at the nodes of the offending cells only: the outlet
+    nodes keep their Eulerian places (with one global θ they followed the material out of the
+    silo, and the ch. 7 discharges stopped within seconds), the cell is valid again, and every
+    other node away from it keeps its smoothed position."""
+    sm, wall, X, xL, xs, smoother = _smoothed_hopper(comm)
+    from silo_dolfinx.ale.smoothing import INTERIOR, MIN_SCALED_JACOBIAN
+
+    interior = np.nonzero(smoother.cls == INTERIOR)[0]
+    zmax = comm.allreduce(float(X[:, 1].max()), op=MPI.MAX)
+    # the interior node nearest the top of the wall (the same node on every rank that holds it)
+    key = X[interior, 1] + X[interior, 0]
+    best = comm.allreduce(float(key.max(initial=-1.0)), op=MPI.MAX)
+    k = interior[np.abs(key - best) < 1e-9]
+    x = xs.copy()
+    x[k] += np.array([0.3, 0.3]) * (zmax / 8)  # thrown far past its neighbours: inverts its cells
+    assert smoother.min_scaled_jacobian(x) < 0
+    b0 = smoother.backoffs
+    out = smoother._back_off(x, xL, MIN_SCALED_JACOBIAN)
+    assert smoother.backoffs > b0
+    outlet = sm.nodes_on("outlet")
+    assert np.array_equal(out[outlet], X[outlet])
+    assert smoother.min_scaled_jacobian(out) >= MIN_SCALED_JACOBIAN
+    pk = np.array([comm.allreduce(float(X[k[0], j]) if k.size else -np.inf, op=MPI.MAX) for j in (0, 1)])
+    far = np.linalg.norm(X - pk, axis=1) > 3 * 0.08  # beyond two cells (h 0.08) of the thrown node
+    moved = comm.allreduce(int(np.sum(np.any(out[far] != x[far], axis=1))), op=MPI.SUM)
+    assert moved == 0  # two cells from it, nothing was scaled back
+
+
 # ---------------------------------------------------------------------------- in a discharge
 
 def _ch3_scene(ale: bool, duration: float, h: float = 0.05):

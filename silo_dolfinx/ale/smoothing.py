@@ -37,7 +37,8 @@ Every owned cell adds its share to its four nodes (half of each of its two edges
 node, its area and centroid), owners sum them (reverse scatter) and ghosts receive the new
 positions (forward scatter): correct under MPI without ghost-node fans. A smoothing that
 would invert a cell or drop the scaled Jacobian below a floor is scaled back towards the
-Lagrangian mesh (θ = 1, ½, ¼, …, 0 — the Lagrangian mesh is always valid).
+Lagrangian mesh (θ = 1, ½, ¼, …, 0 — the Lagrangian mesh is always valid) at the nodes of the
+offending cells only, so that the rest of the mesh (the Eulerian outlet) keeps its rule.
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ from silo_dolfinx.geometry.wall import arclength_of, slide
 
 OUTLET, TOP_CORNER, WALL, AXIS, TOP, INTERIOR = range(6)
 MIN_SCALED_JACOBIAN = 0.05  # a smoothed cell must keep every corner angle above ~3°
+MAX_BACKOFFS = 60  # rounds of local back-off before the whole mesh stays Lagrangian
 
 
 class Smoother:
@@ -81,6 +83,7 @@ class Smoother:
         self.orient = orientation(x, self.cn)
         self._acc = la.vector(nmap, 6)
         self._pos = la.vector(nmap, 2)
+        self._flag = la.vector(nmap, 1)
 
         # node classes, by priority (a node on two boundaries takes the first rule)
         on = {name: np.zeros(self.n_nodes, bool) for name in ("outlet", "top", "wall", "axis")}
@@ -209,21 +212,57 @@ class Smoother:
             _relax(x, acc, self.r0, self.interior, self.wL, self.wA)
             self._sync(x)
         # never worse than the floor, or than the Lagrangian mesh if that is already below it
-        theta = 1.0
         xs = x
         q = self.min_scaled_jacobian(xs)
         floor = MIN_SCALED_JACOBIAN if q >= MIN_SCALED_JACOBIAN else min(MIN_SCALED_JACOBIAN,
                                                                          0.999 * self.min_scaled_jacobian(xL))
-        while q < floor:
-            self.backoffs += 1
-            theta *= 0.5
-            if theta < 1e-3:
-                xs = xL.copy()
-                break
-            xs = xL + theta * (x - xL)
-            q = self.min_scaled_jacobian(xs)
+        if q < floor:
+            xs = self._back_off(x, xL, floor)
         np.copyto(self.x_prev, xs)
         return xs
+
+    def _back_off(self, x: np.ndarray, xL: np.ndarray, floor: float) -> np.ndarray:
+        """Scale the smoothing back towards the Lagrangian mesh (θ = 1, ½, ¼, …, 0) at the nodes of
+        the cells below ``floor`` only, until none is: a poor cell at the free surface must not
+        stop the outlet being Eulerian elsewhere (with one global θ it did, and the outlet nodes
+        then left with the material - the ch. 7 discharges). Collective; terminates, as a cell
+        whose nodes are all Lagrangian is above the floor; after MAX_BACKOFFS rounds, the whole
+        mesh is Lagrangian."""
+        from dolfinx import la
+
+        theta = np.ones(self.n_nodes)
+        flag = self._flag.array
+        xs = x
+        for _ in range(MAX_BACKOFFS):
+            self.backoffs += 1
+            flag[:] = 0.0
+            _flag_cells_below(xs, self.cn, self.orient, self.n_cells, floor, flag)
+            self._flag.scatter_reverse(la.InsertMode.add)  # owners learn of their nodes' cells on every rank
+            self._flag.scatter_forward()
+            hit = flag > 0.0
+            theta[hit] = np.where(theta[hit] > 2e-3, 0.5 * theta[hit], 0.0)
+            xs = xL + theta[:, None] * (x - xL)
+            if self.min_scaled_jacobian(xs) >= floor:
+                return xs
+        return xL.copy()
+
+
+@numba.njit(cache=True)
+def _flag_cells_below(x, cn, orient, n, floor, flag):
+    """flag[node] += 1 for the four nodes of every cell (of the first n) whose scaled Jacobian
+    at some corner is below ``floor``."""
+    for c in range(n):
+        o = orient[c]
+        for k in range(4):
+            a, b, d = cn[c, (k + 3) % 4], cn[c, k], cn[c, (k + 1) % 4]
+            e1r, e1z = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
+            e2r, e2z = x[d, 0] - x[b, 0], x[d, 1] - x[b, 1]
+            l1 = math.sqrt(e1r * e1r + e1z * e1z)
+            l2 = math.sqrt(e2r * e2r + e2z * e2z)
+            if o * (e1r * e2z - e1z * e2r) < floor * max(l1 * l2, 1e-300):
+                for j in range(4):
+                    flag[cn[c, j]] += 1.0
+                break
 
 
 @numba.njit(cache=True)

@@ -12,7 +12,7 @@
 # friction angle (35°) is a Mohr–Coulomb angle mapped to the cone matched in compression
 # (β = 54.81°): the fill then stays elastic ("the solid does not yield until some time after
 # discharge", as the thesis says); the trend of the discharge pressures is not reproduced
-# with the data the thesis gives (README).
+# with the data the thesis gives (docs/validation/ch8.md).
 #
 # Run it with
 #

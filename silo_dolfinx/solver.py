@@ -292,7 +292,9 @@ class ExplicitSolver:
             np.copyto(self.mesh.geometry.x, self._x_old)
             raise InstabilityError(self._collapse_message(dt_crit))
         if dt_crit < num.min_time_step_fraction * self.dt_reference:
-            raise InstabilityError(self._fall_message(dt_crit))
+            message = self._fall_message(dt_crit)
+            np.copyto(self.mesh.geometry.x, self._x_old)  # the state of the last accepted step
+            raise InstabilityError(message)
         return dt_crit
 
     def _fall_message(self, dt_crit: float) -> str:

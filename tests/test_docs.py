@@ -5,7 +5,7 @@ exempt only with a reason beside it: `<!-- docs-test: skip (reason) -->` on the 
 
 The commands run as written from the repository root, with two substitutions so that the test
 is quick and leaves the checkout clean: `results/` becomes a temporary folder, and `silo run`
-gets its stages shortened (two layers in 1 s, 0.3 s of storage, 1 s of discharge: coarse
+gets its stages shortened (two layers in 0.5 s, 0.2 s of storage, 0.5 s of discharge: coarse
 settings of the same scene; the full run is what README promises a user, ~2 min on 2 cores)."""
 
 import os
@@ -22,8 +22,8 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 FENCE = re.compile(r"(?P<before>[^\n]*)\n```(?P<lang>\w*)\n(?P<body>.*?)\n```", re.S)
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
 SKIP = re.compile(r"<!-- docs-test: skip \((?P<reason>[^)]{10,})\) -->")
-SHORT = ["--set", "fill.layers=2", "--set", "fill.duration=1.0", "--set", "store.duration=0.3",
-         "--set", "discharge.duration=1.0"]
+SHORT = ["--set", "fill.layers=2", "--set", "fill.duration=0.5", "--set", "store.duration=0.2",
+         "--set", "discharge.duration=0.5"]
 
 pytestmark = pytest.mark.serial  # runs commands (some under mpirun) in subprocesses: once is enough
 

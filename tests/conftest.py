@@ -31,3 +31,11 @@ def scene_dict(geometry: dict, **sections) -> dict:
     d = {"geometry": dict(geometry), "material": dict(ELASTIC), "wall": {"friction": "none"}}
     d.update({k: dict(v) for k, v in sections.items()})
     return d
+
+
+def subprocess_env() -> dict:
+    """This environment without the MPI launcher's variables, for a test that starts its own
+    (possibly mpirun) subprocess from inside an MPI-initialised pytest."""
+    import os
+
+    return {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "HYDRA_", "MPIR_", "OMPI_"))}

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import subprocess_env
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
@@ -74,7 +75,7 @@ def test_console_blocks_run(doc, before, body, tmp_path):
     if "docs-test: skip" in before:
         assert SKIP.search(before), f"{doc.name}: a skipped block needs its reason: {before!r}"
         return
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "HYDRA_", "MPIR_", "OMPI_"))}
+    env = subprocess_env()
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
     for line in commands(body):
         argv = [a.replace("results/", f"{tmp_path}/") for a in shlex.split(line)]

@@ -11,7 +11,6 @@ Sizes: bin 1 m on the ch. 7 section, h 0.05 m (245 cells), K0 start, 0.2 s of st
 discharge — about 15 s a case serially, so the suite adds well under a minute to each CI leg."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -24,7 +23,7 @@ from silo_dolfinx.scene import load_scene
 from silo_dolfinx.simulation import run
 from silo_dolfinx.solver import InstabilityError
 
-from conftest import SCENES
+from conftest import SCENES, subprocess_env
 
 SHORT = ["geometry.element_size=0.05", "geometry.bin_height=1.0", 'fill.method="k0"', "store.duration=0.2",
          "discharge.duration=2.0", "output.field_interval=100", "output.stations=[0.3, 0.687, 1.0, 1.5]"]
@@ -123,7 +122,7 @@ def test_an_error_on_one_rank_never_hangs_the_others(tmp_path):
     script = tmp_path / "fail.py"
     script.write_text(RANK_LOCAL_ERROR)
     mpirun = Path(sys.executable).parent / "mpirun"
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "HYDRA_"))}
+    env = subprocess_env()
     done = subprocess.run([str(mpirun) if mpirun.exists() else "mpirun", "-n", "2", sys.executable, str(script),
                            str(SCENES / "hopper_ch3_ale.toml"), str(tmp_path / "out")],
                           capture_output=True, text=True, timeout=120, env=env)

@@ -161,6 +161,50 @@ def test_mesh_that_is_not_a_silo(shared_tmp, comm):
         mesh_scene(load_scene(scene_dict(g)), comm)
 
 
+def _triangles(gmsh, path):
+    s = gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 1.0, 1.0)
+    gmsh.model.occ.synchronize()
+    gmsh.model.mesh.generate(2)
+    curves = [c for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)]
+    gmsh.model.addPhysicalGroup(2, [s], 1, "material")
+    for tag, (name, c) in enumerate(zip(("outlet", "wall", "top", "axis"), curves), start=1):
+        gmsh.model.addPhysicalGroup(1, [c], tag, name)
+    gmsh.write(str(path))
+
+
+def _box(gmsh, path):
+    v = gmsh.model.occ.addBox(0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+    gmsh.model.occ.synchronize()
+    gmsh.model.mesh.generate(3)
+    gmsh.model.addPhysicalGroup(3, [v], 1, "material")
+    gmsh.write(str(path))
+
+
+def _text(gmsh, path):
+    path.write_text("$MeshFormat\nnot a mesh\n")
+
+
+@pytest.mark.parametrize("build,reason", [(_triangles, "cells are triangle, not quadrilaterals"),
+                                          (_box, "it is a 3D mesh"), (_text, "gmsh cannot read it")],
+                         ids=["triangles", "3d", "not-gmsh"])
+def test_mesh_file_that_is_not_a_silo_mesh(shared_tmp, comm, build, reason):
+    """Triangles (the explicit scheme is written for Q1 quadrilaterals), a 3D mesh, a file gmsh
+    cannot parse: each refused naming mesh_file, its reason and a fix - not DOLFINx's error."""
+    path = shared_tmp / f"{build.__name__}.msh"
+    if comm.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.3)
+        gmsh.model.add("bad")
+        build(gmsh, path)
+        gmsh.finalize()
+    comm.barrier()
+    with pytest.raises(MeshingError, match=f"mesh_file = '{path.name}': {reason}.*Fix"):
+        mesh_scene(load_scene(scene_dict({**SHAPES["hopper"], "mesh_file": str(path)})), comm)
+
+
 def test_mesh_without_tags_is_refused(shared_tmp, comm):
     path = shared_tmp / "untagged.msh"
     if comm.rank == 0:

@@ -266,3 +266,25 @@ def test_docs_match_schema():
     """docs/scene.md is generated from the schema; regenerate with
     `silo schema > docs/scene.md`."""
     assert (ROOT / "docs" / "scene.md").read_text() == markdown()
+
+
+CH4 = SCENES / "hopper_ch4.toml"
+
+
+@pytest.mark.parametrize("overrides,key,fragments", [
+    (["material.youngs_modulus=5.5e3"], "material.youngs_modulus",  # 1000·9.81·2.64/5.5e3 = 4.71
+     ("compress by 4.71 of its height", "Fix: check the units")),
+    (["loads.top_surcharge=1e6"], "loads.top_surcharge", ("compress by 1.87",)),  # (25898 + 1e6)/5.5e5
+    (["material.density=1e-3"], "numerics.max_steps",  # c_d = 27210 m/s, Δt ≈ 0.8 · 0.0155/2 / c_d, 72 s
+     ("about 3.16e+08 time steps", "Δt ≈ 2.28e-07 s")),
+    (["discharge.duration=1e5"], "discharge.duration", ("about 4.39e+08 time steps",)),  # 100012 s / 2.28e-4 s
+    (["discharge.mode=controlled", "discharge.velocity=10"], "discharge.velocity",
+     ("0.368 of the solid's wave speed c_d = 27.2 m/s", "velocity ≤ 2.72 m/s")),
+    (["material.cohesion=1e6"], "material.cohesion", ("could never yield",)),
+], ids=["modulus", "surcharge", "density", "duration", "drive", "cohesion"])
+def test_scenes_that_cannot_run_are_refused_before_meshing(overrides, key, fragments):
+    """What the keys imply - self-weight strain, step count, drive against the wave speed - is
+    checked before anything is meshed; each figure in the message is the closed form in the
+    comment (ch. 4: ρ 1000, E 5.5e5, ν 0.3, c_d 27.21 m/s, h 0.0155, 72 s of fill, store and
+    discharge)."""
+    assert_names(refused(CH4, overrides), key, *fragments)

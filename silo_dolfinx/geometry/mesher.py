@@ -478,6 +478,9 @@ def read_mesh(path: str | Path, outline: Outline, comm, *, rank: int = 0) -> Sil
                            "or remove mesh_file to mesh the geometry with gmsh.")
     from silo_dolfinx._compat import facet_ghost_partitioner
 
+    problem = comm.bcast(_msh_problem(path) if comm.rank == rank else None, root=rank)
+    if problem:
+        raise MeshingError(f"[geometry] mesh_file = {path.name!r}: {problem}")
     data = dgmsh.read_from_msh(str(path), comm, rank, gdim=2, partitioner=facet_ghost_partitioner())
     m = data.mesh
     if m.topology.cell_type != dmesh.CellType.quadrilateral:
@@ -502,6 +505,36 @@ def read_mesh(path: str | Path, outline: Outline, comm, *, rank: int = 0) -> Sil
     sm = SiloMesh(m, data.cell_tags, facet_tags, outline)
     check_fits(sm)
     return sm
+
+
+def _msh_problem(path: Path) -> str | None:
+    """Why gmsh's file ``path`` cannot be a silo mesh (unreadable, not 2D, off the plane), or None.
+    Checked with gmsh on one rank before DOLFINx reads it, whose own errors name neither."""
+    import gmsh
+
+    started = gmsh.is_initialized()
+    if not started:
+        gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add("silo_dolfinx_mesh_file_check")
+    try:
+        try:
+            gmsh.merge(str(path))
+        except Exception as e:  # gmsh raises a bare Exception with its parser's message
+            return f"gmsh cannot read it ({e}). Fix: give a gmsh .msh file (see meshes/*.py)."
+        dim = gmsh.model.getDimension()
+        if dim != 2:
+            return (f"it is a {dim}D mesh; a silo is meshed in its (r, z) half-plane: a 2D mesh of quadrilaterals "
+                    "with x = r, y = z. Fix: mesh the meridian section (see meshes/*.py).")
+        _, xyz, _ = gmsh.model.mesh.getNodes()
+        if xyz.size and float(np.abs(xyz[2::3]).max()) > 0.0:
+            return ("its nodes leave the plane z = 0 (gmsh's third coordinate); the mesh must lie in the (r, z) "
+                    "half-plane as x = r, y = z. Fix: draw the section in the x-y plane.")
+        return None
+    finally:
+        gmsh.model.remove()
+        if not started:
+            gmsh.finalize()
 
 
 def check_fits(sm: SiloMesh, rel_tol: float = 1e-6) -> None:

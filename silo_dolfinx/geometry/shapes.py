@@ -288,7 +288,7 @@ def resolve_geometry(g: dict) -> list[Problem]:
     if h > thin / 2:
         return [Problem("geometry", "element_size", f"= {h:g} m is too coarse: fewer than two elements "
                         f"across the silo ({thin:g} m). Fix: element_size ≤ {thin / 2:.3g}.")]
-    estimate = ol.meridian_area() / h**2
+    estimate = ol.meridian_area() / h / h  # not h**2: that underflows to 0 for a typo like 1e-300
     if estimate > g["max_cells"]:
         return [Problem("geometry", "element_size", f"= {h:g} m would give about {estimate:.3g} cells, "
                         f"more than max_cells = {g['max_cells']}. Fix: a larger element_size (e.g. "

@@ -10,6 +10,7 @@ class Problem:
     section: str  # "" for top-level keys
     key: str
     message: str  # complete, self-contained sentence(s) including the fix
+    also: tuple[str, ...] = ()  # other "section.key"s the problem involves (a product of several keys)
 
     def __str__(self) -> str:
         where = f"[{self.section}] {self.key}" if self.section else self.key
@@ -28,5 +29,6 @@ class SceneError(ValueError):
 
     @property
     def keys(self) -> list[str]:
-        """The ``section.key`` names of all problems (handy in tests and tools)."""
-        return [f"{p.section}.{p.key}" if p.section else p.key for p in self.problems]
+        """The ``section.key`` names of all problems, and of the keys each involves (handy in tests
+        and tools)."""
+        return [k for p in self.problems for k in (f"{p.section}.{p.key}" if p.section else p.key, *p.also)]

@@ -237,11 +237,12 @@ def load_scene(
             continue
         if isinstance(value, dict):
             problems.append(Problem(name, "(section)", "unknown section." + _suggest(name, SECTION_BY_NAME)
-                                    + f" Sections: {', '.join(SECTION_BY_NAME)}."))
+                                    + f" Sections: {', '.join(SECTION_BY_NAME)}. Fix: rename it to one of these, or "
+                                    "remove it."))
         else:
             problems.append(Problem("", name, "unknown top-level key." + _suggest(name, top_names | set(SECTION_BY_NAME))
                                     + f" Top-level keys: {', '.join(sorted(top_names))}; everything "
-                                    "else belongs in a [section]."))
+                                    "else belongs in a [section]. Fix: move it into its [section], or remove it."))
     for k in TOP_KEYS:
         v = raw.get(k.name, k.default)
         problems += _check_value("", k, v) if k.name in raw else []
@@ -276,8 +277,14 @@ def load_scene(
     problems += resolve_geometry(out["geometry"])
     if not problems:
         problems += _resolve_derived(out)
+    if not problems:
+        problems += _feasibility(out)
     if problems:
         raise SceneError(problems, str(source) if source else None)
+    d = out["discharge"]
+    if d["mode"] == "controlled" and d["ramp_time"] > d["duration"]:
+        warnings.append(f"[discharge] ramp_time = {d['ramp_time']:g} s is longer than the discharge (duration = "
+                        f"{d['duration']:g} s): the outlet reaches only part of velocity = {d['velocity']:g} m/s.")
     return Scene(out, Path(source) if source else None, warnings)
 
 
@@ -324,7 +331,7 @@ def _resolve_section(sec: Section, given: dict, present: bool):
         problems.append(Problem(sec.name, name, "unknown key." + _suggest(name, names)
                                 + f" Keys of [{sec.name}]"
                                 + (f" ({sec.selector} = {variant!r})" if variant else "")
-                                + f": {', '.join(choices)}."))
+                                + f": {', '.join(choices)}. Fix: rename it to one of these, or remove it."))
     for k in keys:
         if k.name in given:
             p = _check_value(sec.name, k, given[k.name])
@@ -531,3 +538,55 @@ def _point_checks(o, g) -> list[Problem]:
             return [Problem("output", "points", f"point [{r:g}, {z:g}] m is outside the fill (z in [0, {hf:g}] m, "
                             f"r in [0, wall radius) there). Fix: move it inside or remove it.")]
     return []
+
+
+# What the keys imply for the run, checked before anything is meshed: each bound is far from any
+# silo (the thesis' scenes sit 5-100 times inside it), so what trips one is a unit or exponent slip.
+MAX_SELF_WEIGHT_STRAIN = 0.25  # the thesis' fills compress by ~0.05 of their height
+MAX_DRIVE_STRAIN = 0.1  # the thesis' fastest controlled outlet (ch. 7, 2 u0): u0 / c_d = 0.048
+STEP_SIZE_FACTOR = 0.5  # Δt estimate from half the smallest target element size (cells near an outlet are smaller)
+
+
+def _feasibility(out: dict[str, Any]) -> list[Problem]:
+    """Self-weight strain, outlet drive against the wave speed, the estimated number of steps,
+    cohesion against stiffness."""
+    from silo_dolfinx.theory import confined_wave_speed
+
+    m, g, lo, f, d, n = (out[k] for k in ("material", "geometry", "loads", "fill", "discharge", "numerics"))
+    E, rho, hf = m["youngs_modulus"], m["density"], g["fill_height"]
+    p: list[Problem] = []
+    strain = (rho * lo["gravity"] * hf + lo["top_surcharge"]) / E
+    if strain > MAX_SELF_WEIGHT_STRAIN:
+        p.append(Problem("material", "youngs_modulus", f"= {E:g} Pa: under its weight and surcharge the fill would "
+                         f"compress by {strain:.3g} of its height ((density · gravity · fill_height + top_surcharge) / "
+                         f"youngs_modulus = ({rho:g} · {lo['gravity']:g} · {hf:g} + {lo['top_surcharge']:g}) / {E:g}), "
+                         f"more than {MAX_SELF_WEIGHT_STRAIN:g}: no granular solid does, and small-strain elasticity "
+                         "cannot follow it. Fix: check the units (youngs_modulus and top_surcharge in Pa, density in "
+                         "kg/m³, gravity in m/s²).",
+                         also=("material.density", "loads.gravity", "loads.top_surcharge", "geometry.fill_height")))
+    c = confined_wave_speed(E, m["poisson_ratio"], rho)
+    if d["mode"] == "controlled":
+        if d["velocity"] > MAX_DRIVE_STRAIN * c:
+            p.append(Problem("discharge", "velocity", f"= {d['velocity']:g} m/s is {d['velocity'] / c:.3g} of the "
+                             f"solid's wave speed c_d = {c:.3g} m/s: the drive would strike the fill (a strain u0/c_d "
+                             f"above {MAX_DRIVE_STRAIN:g} in the wave it starts), not discharge it. Fix: velocity "
+                             f"≤ {MAX_DRIVE_STRAIN * c:.3g} m/s (check its units), or a stiffer / lighter solid.",
+                             also=("material.youngs_modulus", "material.density")))
+    if m.get("cohesion", 0.0) >= E:
+        p.append(Problem("material", "cohesion", f"= {m['cohesion']:g} Pa is not below youngs_modulus = {E:g} Pa: "
+                         "the solid could never yield. Fix: check its units (Pa), or use model = \"elastic\".",
+                         also=("material.youngs_modulus",)))
+    h = g["element_size"] * min(g["outlet_size_factor"], g["transition_size_factor"]) * STEP_SIZE_FACTOR
+    durations = {"fill.duration": f["duration"] if f["method"] != "k0" else 0.0, "store.duration": out["store"]["duration"],
+                 "discharge.duration": d["duration"] if d["mode"] != "none" else 0.0}
+    dt = n["time_step_scale"] * h / c * math.sqrt(n["mass_scaling"])
+    steps = sum(durations.values()) / dt
+    if steps > n["max_steps"]:
+        p.append(Problem("numerics", "max_steps", f"= {n['max_steps']:g} is exceeded: the scene needs about {steps:.3g} "
+                         f"time steps ({sum(durations.values()):g} s of fill, store and discharge at Δt ≈ {dt:.3g} s, "
+                         f"from element_size = {g['element_size']:g} m, youngs_modulus = {E:g} Pa, density = "
+                         f"{rho:g} kg/m³, time_step_scale = {n['time_step_scale']:g}). Fix: check the units and "
+                         "exponents of those keys and the durations, or raise max_steps if the run is meant.",
+                         also=("geometry.element_size", "material.youngs_modulus", "material.density",
+                               "numerics.time_step_scale", "numerics.mass_scaling", *(k for k, v in durations.items() if v))))
+    return p

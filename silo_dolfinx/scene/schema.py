@@ -109,6 +109,10 @@ def C(name, choices, default=REQUIRED, doc="") -> Key:
 
 POS = dict(lo=0.0, lo_open=True)
 NONNEG = dict(lo=0.0)
+# Upper bounds guard typos (a length in mm written as m, an exponent off by ten): no silo this
+# code is meant for has a dimension above a kilometre.
+LENGTH = dict(lo=0.0, lo_open=True, hi=1000.0)
+DURATION = dict(lo=0.0, hi=1.0e6)  # s of simulated time: 11 days; a silo empties in minutes
 
 # ---------------------------------------------------------------------------- top level
 TOP_KEYS: tuple[Key, ...] = (
@@ -124,7 +128,7 @@ TOP_KEYS: tuple[Key, ...] = (
 )
 
 # ---------------------------------------------------------------------------- sections
-_radius_out = F("outlet_radius", unit="m", doc="Radius of the central outlet.", **POS, example=0.1)
+_radius_out = F("outlet_radius", unit="m", doc="Radius of the central outlet.", **LENGTH, example=0.1)
 
 GEOMETRY = Section(
     "geometry",
@@ -135,52 +139,52 @@ GEOMETRY = Section(
           "outlet; bin_hopper: cylinder on a conical hopper, abrupt or filleted transition; "
           "column: tapered column whose whole base is the outlet; profile: your own wall."),
         F("fill_height", DERIVED, "m", "Height of the (flat) top surface of the fill. Default: the "
-          "wall's full height.", **POS),
+          "wall's full height.", **LENGTH),
         F("element_size", DERIVED, "m", "Target element size away from refinement. Default: the "
-          "largest wall radius below the fill / 20.", **POS),
+          "largest wall radius below the fill / 20.", **LENGTH),
         C("mesh", ("structured", "unstructured"), "structured",
           "structured: block-structured quadrilaterals in horizontal bands (the thesis' meshes); "
           "unstructured: frontal-Delaunay quadrilaterals (any wall, e.g. with ledges)."),
         F("max_aspect_ratio", 2.0, "-", "Structured meshes: the vertical cell size is at most this "
           "times the local radial cell size (keeps cells near a hopper outlet from becoming needles).",
-          lo=1.0),
+          lo=1.0, hi=20.0),
         F("outlet_size_factor", 1.0, "-", "Element size at the outlet edge as a fraction of "
           "element_size (1 = no refinement).", lo=0.0, hi=1.0, lo_open=True),
         F("transition_size_factor", 1.0, "-", "Element size at wall corners and fillets (the "
           "transition) as a fraction of element_size.", lo=0.0, hi=1.0, lo_open=True),
         F("refinement_distance", DERIVED, "m", "Distance over which the size grows back from a "
-          "refined point to element_size. Default: 1/4 of the largest wall radius.", **POS),
+          "refined point to element_size. Default: 1/4 of the largest wall radius.", **LENGTH),
         Key("mesh_file", "str", "", doc="Use this gmsh .msh file (tags material, wall, outlet, "
             "top, axis) instead of meshing; it must fit the wall described by the other keys."),
         I("max_cells", 2_000_000, doc="Refuse to mesh more cells than this (guards typos in "
-          "element_size).", lo=1),
+          "element_size).", lo=1, hi=100_000_000),
     ),
     selector="shape",
     variants={
         "hopper": (
-            F("height", unit="m", doc="Height of the hopper wall above the outlet.", **POS, example=2.64),
-            F("top_radius", unit="m", doc="Radius at the top of the hopper.", **POS, example=1.2),
+            F("height", unit="m", doc="Height of the hopper wall above the outlet.", **LENGTH, example=2.64),
+            F("top_radius", unit="m", doc="Radius at the top of the hopper.", **LENGTH, example=1.2),
             _radius_out,
         ),
         "flat_bottom": (
-            F("radius", unit="m", doc="Radius of the cylinder.", **POS, example=0.35),
-            F("height", unit="m", doc="Height of the cylinder wall.", **POS, example=4.0),
+            F("radius", unit="m", doc="Radius of the cylinder.", **LENGTH, example=0.35),
+            F("height", unit="m", doc="Height of the cylinder wall.", **LENGTH, example=4.0),
             _radius_out,
         ),
         "bin_hopper": (
-            F("radius", unit="m", doc="Radius of the cylinder (bin).", **POS, example=0.35),
-            F("bin_height", unit="m", doc="Height of the vertical wall above the transition.", **POS,
+            F("radius", unit="m", doc="Radius of the cylinder (bin).", **LENGTH, example=0.35),
+            F("bin_height", unit="m", doc="Height of the vertical wall above the transition.", **LENGTH,
               example=4.18),
             F("hopper_half_angle", unit="deg", doc="Hopper apex half-angle, from the vertical.",
               lo=0.0, hi=90.0, lo_open=True, hi_open=True, example=20.0),
             _radius_out,
             F("fillet_radius", 0.0, "m", "Radius of the circular blend at the transition; 0 = "
-              "abrupt corner.", **NONNEG),
+              "abrupt corner.", lo=0.0, hi=1000.0),
         ),
         "column": (
             F("base_radius", unit="m", doc="Radius of the base (the whole base is the outlet).",
-              **POS, example=0.5),
-            F("height", unit="m", doc="Height of the column.", **POS, example=5.0),
+              **LENGTH, example=0.5),
+            F("height", unit="m", doc="Height of the column.", **LENGTH, example=5.0),
             F("half_angle", 0.0, "deg", "Wall angle from the vertical: + converging (widening "
               "upwards, apex down), - diverging, 0 parallel.", lo=-60.0, hi=60.0),
         ),
@@ -207,7 +211,8 @@ MATERIAL = Section(
           doc="elastic: linear elastic; drucker_prager: elastic-perfectly plastic, "
           "non-associated; non_coaxial: Drucker-Prager with a yield-vertex non-coaxial term."),
         F("density", unit="kg/m³", doc="Bulk density (unit weight / g).", **POS, example=1000.0),
-        F("youngs_modulus", unit="Pa", doc="Young's modulus.", **POS, example=5.5e5),
+        F("youngs_modulus", unit="Pa", doc="Young's modulus (granular solids: 10⁵-10⁸; at most 10¹², diamond's).",
+          lo=0.0, hi=1.0e12, lo_open=True, example=5.5e5),
         F("poisson_ratio", 0.3, "-", "Poisson's ratio.", lo=-1.0, hi=0.5, lo_open=True, hi_open=True),
     ),
     selector="model",
@@ -234,7 +239,7 @@ MATERIAL = Section(
               "0.05 is the dilation of a loosely poured sand (relative density ≈ 37 %, Toyoura "
               "void ratios) to its critical void ratio at silo stresses; 0.036-0.10 spans relative "
               "densities 30-60 % (docs/material.md). 0 = dilation never stops (the "
-              "thesis' Drucker-Prager: the density near an outlet then keeps falling).", **NONNEG),
+              "thesis' Drucker-Prager: the density near an outlet then keeps falling).", lo=0.0, hi=1.0),
         ),
     },
 )
@@ -257,7 +262,8 @@ WALL = Section(
             F("mu_static", unit="-", doc="μs, at zero slip velocity.", lo=0.0, hi=2.0, example=0.67),
             F("mu_kinetic", unit="-", doc="μk, at high slip velocity (≤ mu_static).", lo=0.0, hi=2.0,
               example=0.3),
-            F("decay", unit="s/m", doc="ϖ, decay coefficient in eq. 7-1.", **NONNEG, example=2.0),
+            F("decay", unit="s/m", doc="ϖ, decay coefficient in eq. 7-1 (the thesis: 2-10; 10⁴ already drops μ "
+              "to μk at 0.1 mm/s of slip).", lo=0.0, hi=1.0e4, example=2.0),
         ),
     },
 )
@@ -280,7 +286,7 @@ FILL = Section(
           "layers: the fill is activated in horizontal layers from the bottom, each stress-free "
           "when it appears; ramp: gravity is ramped smoothly on the whole fill; k0: start from "
           "the geostatic field σzz = −ρg(H−z), σrr = σθθ = k0·σzz, no filling stage."),
-        F("duration", 10.0, "s", "Duration of the filling stage.", **NONNEG),
+        F("duration", 10.0, "s", "Duration of the filling stage.", **DURATION),
         F("ramp_fraction", 0.5, "-", "Fraction of each layer's (or the ramp's) time over which "
           "its gravity is ramped smoothly; the rest lets it settle.", lo=0.0, hi=1.0, lo_open=True),
         F("damping", 0.0, "-", "Fraction of critical damping of the fill's fundamental vertical mode, "
@@ -289,9 +295,10 @@ FILL = Section(
     ),
     selector="method",
     variants={
-        "layers": (I("layers", 10, doc="Number of layers.", lo=1),),
+        "layers": (I("layers", 10, doc="Number of layers (the thesis: 10-20); each layer's top is a mesh line.",
+                     lo=1, hi=1000),),
         "ramp": (),
-        "k0": (F("k0", DERIVED, "-", "Lateral pressure ratio. Default: ν/(1−ν).", **POS),),
+        "k0": (F("k0", DERIVED, "-", "Lateral pressure ratio. Default: ν/(1−ν).", lo=0.0, hi=10.0, lo_open=True),),
     },
 )
 
@@ -299,9 +306,9 @@ STORE = Section(
     "store",
     "Storage after filling: the silo closed, the solid coming to rest.",
     keys=(
-        F("duration", 2.0, "s", "Longest storage time.", **NONNEG),
+        F("duration", 2.0, "s", "Longest storage time.", **DURATION),
         F("kinetic_energy_tol", 0.0, "-", "End storage early once kinetic energy < tol × work of "
-          "gravity (0: always run the full duration).", **NONNEG),
+          "gravity (0: always run the full duration; ≥ 1 would end it at once).", lo=0.0, hi=1.0, hi_open=True),
     ),
 )
 
@@ -312,7 +319,7 @@ DISCHARGE = Section(
         C("mode", ("none", "free", "controlled"), "none",
           "none: no discharge stage; free: the outlet support is removed at once; controlled: "
           "the outlet velocity is prescribed, u(t) = u0/2·(1 − cos(π t/ramp_time)) then u0."),
-        F("duration", 0.0, "s", "Duration of the discharge stage.", **NONNEG),
+        F("duration", 0.0, "s", "Duration of the discharge stage.", **DURATION),
         C("gate", ("smooth", "rough", "fixed"), "smooth",
           "How the closed outlet holds the solid before discharge: smooth (no friction), rough "
           "(wall friction law), fixed (no slip)."),
@@ -324,7 +331,7 @@ DISCHARGE = Section(
         "controlled": (
             F("velocity", unit="m/s", doc="u0, the final outlet velocity (downwards).", **POS,
               example=1.0),
-            F("ramp_time", 2.0, "s", "Time to reach u0.", **NONNEG),
+            F("ramp_time", 2.0, "s", "Time to reach u0 (longer than the discharge: a warning).", **DURATION),
         ),
     },
 )
@@ -338,11 +345,15 @@ NUMERICS = Section(
         Key("bulk_viscosity", "floats", (0.06, 1.2), "-", "[linear, quadratic] bulk viscosity "
             "coefficients; [0, 0] switches it off.", lo=0.0, length=2),
         F("mass_scaling", 1.0, "-", "Factor on the inertial mass (Δt grows with its square root); "
-          "1 = none.", lo=1.0),
+          "1 = none.", lo=1.0, hi=1.0e6),
         F("min_time_step_fraction", 0.01, "-", "Stop with a diagnosis (the limiting cell, its density, the "
           "likely cause and fix) when the stable Δt falls below this fraction of its value when the "
           "cells were last activated (a remap does not reset it): an arch over the outlet empties the "
           "cells below it and Δt falls towards zero. 0 = never stop.", lo=0.0, hi=1.0, hi_open=True),
+        I("max_steps", 100_000_000, doc="Refuse a scene whose estimated number of time steps (its "
+          "durations over the stable Δt of its element size, modulus and density) exceeds this: a "
+          "modulus, density or duration off by some powers of ten would otherwise run for weeks. The "
+          "largest thesis run needs ~10⁶.", lo=1, hi=1_000_000_000_000),
     ),
 )
 
@@ -351,8 +362,8 @@ ALE = Section(
     "Arbitrary Lagrangian-Eulerian mesh motion (thesis ch. 3.2).",
     keys=(
         Key("enabled", "bool", True, doc="false = purely Lagrangian."),
-        I("frequency", 10, doc="Smooth and remap every this many steps.", lo=1),
-        I("sweeps", 1, doc="Smoothing sweeps per smoothing.", lo=1),
+        I("frequency", 10, doc="Smooth and remap every this many steps.", lo=1, hi=10_000),
+        I("sweeps", 1, doc="Smoothing sweeps per smoothing.", lo=1, hi=100),
         F("laplacian_weight", 0.5, "-", "Weight of Laplacian smoothing (eq. 3-4).", lo=0.0, hi=1.0),
         F("mid_area_weight", 0.5, "-", "Weight of mid-area (volume-weighted) smoothing (eq. 3-5); "
           "the two weights sum to at most 1.", lo=0.0, hi=1.0),
@@ -365,8 +376,8 @@ ALE = Section(
           "graded: smooth only the distortion relative to the initial mesh (keeps its refinement); "
           "uniform: plain eqs. 3-4/3-5 (evens out element sizes)."),
         I("tracer_rows", 10, doc="Rows of tracers (material points) seeded at the opening, for flow "
-          "patterns; 0 = none.", lo=0),
-        I("tracer_columns", 12, doc="Tracers per row, from the axis to the wall.", lo=1),
+          "patterns; 0 = none.", lo=0, hi=1000),
+        I("tracer_columns", 12, doc="Tracers per row, from the axis to the wall.", lo=1, hi=1000),
     ),
 )
 
@@ -379,7 +390,8 @@ OUTPUT = Section(
             "wall_history.csv (the wall stream is not built)."),
         C("station_coordinate", ("z", "s"), "z", "z: stations are heights; s: wall arclengths "
           "from the outlet edge."),
-        F("history_rate", 200.0, "Hz", "Sampling rate of time histories.", **POS),
+        F("history_rate", 200.0, "Hz", "Sampling rate of time histories (at most one sample per step).",
+          lo=0.0, hi=1.0e6, lo_open=True),
         Key("points", "locations", (), "m", "Interior points [r, z] whose stress (the mean of the cell "
             "containing each, as the thesis' one-point elements report it) is written to "
             "point_history.csv at the history rate (the thesis' Figs. 4-16 to 4-18); [] = none.",
@@ -388,7 +400,7 @@ OUTPUT = Section(
           "thesis'); material: they stay until the outlet opens, then move with the solid (carried "
           "through ALE remaps like tracers; a point that leaves through the outlet has no values after)."),
         F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX, and the snapshots "
-          "`silo report` draws); 0 = no field output at all (the field stream is not built).", **NONNEG),
+          "`silo report` draws); 0 = no field output at all (the field stream is not built).", **DURATION),
     ),
 )
 

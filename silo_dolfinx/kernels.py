@@ -180,13 +180,19 @@ def closure(points, cells, viscosity, bbar, nq, packed):
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def stable_dt(x, cell_nodes, cells, modulus, viscosity, mass_scaling, hoop=HOOP):
+def stable_dt(x, cell_nodes, orient, cells, modulus, viscosity, mass_scaling, hoop=HOOP):
     """Smallest element stable time step (without the user's scale factor).
 
-    x: mesh coordinates; cell_nodes (nc, 4): corner nodes in boundary-cycle order;
+    x: mesh coordinates; cell_nodes (nc, 4): corner nodes in boundary-cycle order; orient
+    (nc,): each cell's orientation (±1, the sign of its area when it was valid);
     cells = (trd, L, c, rho) (:attr:`CellData.arrays`): reads the cell densities and
     volumetric strain rates, writes each cell's characteristic length and wave speed;
-    modulus: P-wave modulus λ + 2μ; viscosity = (b1, b2). Returns 0 for a collapsed cell.
+    modulus: P-wave modulus λ + 2μ; viscosity = (b1, b2).
+
+    Returns −(c + 1) for the first cell c that has collapsed or inverted - zero or negative
+    area against its orientation, or a corner turned inside out (a non-convex quadrilateral:
+    its Jacobian changes sign inside it, so the quadrature sees a valid cell that is not) -
+    and the caller stops with a clear message.
     """
     trd_cell, L_out, c_out, rho_cell = cells
     b1, b2 = viscosity
@@ -197,16 +203,21 @@ def stable_dt(x, cell_nodes, cells, modulus, viscosity, mass_scaling, hoop=HOOP)
         a = 0.0
         e2max = 0.0
         rc = 0.0
+        o = orient[c]
+        convex = True
         for k in range(4):
-            n0 = cell_nodes[c, k]
-            n1 = cell_nodes[c, (k + 1) % 4]
-            x0, z0, x1, z1 = x[n0, 0], x[n0, 1], x[n1, 0], x[n1, 1]
+            n0 = cell_nodes[c, (k + 3) % 4]
+            n1 = cell_nodes[c, k]
+            n2 = cell_nodes[c, (k + 1) % 4]
+            x0, z0, x1, z1 = x[n1, 0], x[n1, 1], x[n2, 0], x[n2, 1]
             a += x0 * z1 - x1 * z0
             e2max = max(e2max, (x1 - x0) ** 2 + (z1 - z0) ** 2)
             rc += 0.25 * x0
-        a = abs(0.5 * a)
-        if not (a > 0.0 and rc > 0.0):
-            return 0.0  # a collapsed cell: the caller stops with a clear message
+            if o * ((x0 - x[n0, 0]) * (z1 - z0) - (z0 - x[n0, 1]) * (x1 - x0)) < 0.0:
+                convex = False
+        a = 0.5 * a * o
+        if not (a > 0.0 and rc > 0.0 and convex):
+            return -(c + 1.0)
         # altitude a/e_max, with the hoop stiffness near the axis: 1/L² = e²/a² + hoop/r²
         L = 1.0 / math.sqrt(e2max / (a * a) + hoop / (rc * rc))
         cd = math.sqrt(modulus / (rho_cell[c] * mass_scaling))

@@ -42,7 +42,7 @@ from mpi4py import MPI
 from silo_dolfinx import kernels
 from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.forms import AxisymmetricForms
-from silo_dolfinx.geometry.cells import CYCLE, tensor_nodes
+from silo_dolfinx.geometry.cells import CYCLE, orientation, tensor_nodes
 from silo_dolfinx.materials.base import Material
 from silo_dolfinx.state import Energy, NodalData, QuadratureData
 
@@ -137,6 +137,7 @@ class ExplicitSolver:
         """node <-> dof maps (Q1 geometry: one geometry node per vertex, same local order)."""
         gdm = tensor_nodes(mesh)
         self.cell_nodes = np.ascontiguousarray(gdm[:, CYCLE])  # boundary cycle
+        self.cell_orientation = orientation(mesh.geometry.x, self.cell_nodes)  # of the valid initial mesh
         self.node_dof = np.empty(mesh.geometry.x.shape[0], np.int64)
         self.node_dof[gdm.ravel()] = self.V.dofmap.list.ravel()
         self.dof_node = np.empty(self.n_nodes, np.int64)
@@ -178,6 +179,7 @@ class ExplicitSolver:
         self._mass_form = self.forms.mass_form(cells)
         self._coeffs = {key: self.q.packed}
         self._active_nodes = np.ascontiguousarray(self.cell_nodes[cells])
+        self._active_orientation = np.ascontiguousarray(self.cell_orientation[cells])
         self._update_stable_dt()
         self.dt_reference = self.dt_crit  # what Δt may fall from: a remap does not reset it
         self.rebuild_mass()
@@ -284,13 +286,13 @@ class ExplicitSolver:
     def _stable_dt(self) -> float:
         """min over cells of the stable Δt of the current configuration (all ranks)."""
         num = self.numerics
-        dt_crit = kernels.stable_dt(self.mesh.geometry.x, self._active_nodes, self.q.cells.arrays,
-                                    self.material.wave_modulus, num.bulk_viscosity, num.mass_scaling, kernels.HOOP)
-        dt_crit = reduce_scalar(self.comm, dt_crit, MPI.MIN)
+        dt_local = self._cell_dt()
+        dt_crit = reduce_scalar(self.comm, dt_local, MPI.MIN)
         self._clock("dt")
         if not (dt_crit > 1e-6 * self._dt_crit0 and math.isfinite(dt_crit)):
+            message = self._collapse_message(dt_local, dt_crit)
             np.copyto(self.mesh.geometry.x, self._x_old)
-            raise InstabilityError(self._collapse_message(dt_crit))
+            raise InstabilityError(message)
         if dt_crit < num.min_time_step_fraction * self.dt_reference:
             message = self._fall_message(dt_crit)
             np.copyto(self.mesh.geometry.x, self._x_old)  # the state of the last accepted step
@@ -323,9 +325,27 @@ class ExplicitSolver:
                    "min_time_step_fraction to run on.)")
         return head + why
 
-    def _collapse_message(self, dt_crit: float) -> str:
+    def _cell_dt(self) -> float:
+        """This rank's smallest stable Δt of the current configuration; −(c + 1) if active cell c
+        has collapsed or inverted (see :func:`kernels.stable_dt`)."""
+        num = self.numerics
+        return kernels.stable_dt(self.mesh.geometry.x, self._active_nodes, self._active_orientation,
+                                 self.q.cells.arrays, self.material.wave_modulus, num.bulk_viscosity,
+                                 num.mass_scaling, kernels.HOOP)
+
+    def _collapse_message(self, dt_local: float, dt_crit: float) -> str:
+        """Collective: where the mesh collapsed or inverted, and what to do."""
+        where = None
+        if dt_local <= 0.0 and self._active.size:
+            c = int(-dt_local) - 1
+            where = tuple(float(v) for v in self.mesh.geometry.x[self._active_nodes[c], :2].mean(axis=0))
+        where = next((w for w in self.comm.allgather(where) if w is not None), None)
+        if where is not None:
+            return (f"a cell inverted at step {self.steps} (t = {self.t:.6g} s), near r = {where[0]:.3g} m, z = "
+                    f"{where[1]:.3g} m: a corner turned inside out (the step is not kept; the results up to the "
+                    f"last sample stand): {self._distortion_hint()}")
         return (f"an element collapsed at step {self.steps} (t = {self.t:.6g} s; stable Δt fell from "
-                f"{self._dt_crit0:.3g} to {dt_crit:.3g} s): {self._distortion_hint()}")
+                f"{getattr(self, '_dt_crit0', math.nan):.3g} to {dt_crit:.3g} s): {self._distortion_hint()}")
 
     def _distortion_hint(self) -> str:
         scale = self.numerics.time_step_scale
@@ -382,9 +402,11 @@ class ExplicitSolver:
     def _update_stable_dt(self) -> None:
         """Stable Δt of the current configuration (after activation or a remap moved the mesh)."""
         num = self.numerics
-        dt_crit = kernels.stable_dt(self.mesh.geometry.x, self._active_nodes, self.q.cells.arrays,
-                                    self.material.wave_modulus, num.bulk_viscosity, num.mass_scaling, kernels.HOOP)
-        self.dt_crit = self._dt_crit0 = reduce_scalar(self.comm, dt_crit, MPI.MIN)
+        dt_local = self._cell_dt()
+        dt_crit = reduce_scalar(self.comm, dt_local, MPI.MIN)
+        if not (dt_crit > 0.0 and math.isfinite(dt_crit)):
+            raise InstabilityError(self._collapse_message(dt_local, dt_crit))
+        self.dt_crit = self._dt_crit0 = dt_crit
         if self.dt == 0.0:
             self.dt = num.time_step_scale * self.dt_crit
 

@@ -256,6 +256,34 @@ def test_an_emptied_cell_stops_the_run_with_its_diagnosis(comm):
                 s.step()
             assert s.dt < 0.05 * s.dt_reference  # Δt did fall ~32×: the guard, not the physics, decides
 
+def test_a_cell_turned_inside_out_stops_the_step(comm):
+    """A quadrilateral whose corner is pushed past its diagonal is non-convex: its Jacobian
+    changes sign inside it, yet its area stays positive, and the Δt estimate used |area| (the
+    near-empty hopper ran 0.15 s with such a cell until its remap failed). The step stops on it,
+    naming where, and the mesh is left as it was before the step."""
+    sc = column(R=0.1, H=0.5, h=0.05)
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.0, last=True)
+    s = model.solver
+    s.step()
+    x = s.mesh.geometry.x
+    before = x.copy()
+    # the owned cell nearest (0.05, 0.25) on whichever rank holds it: its first corner is moved
+    # 1.6 corner-to-centre distances through the centre, past the opposite diagonal
+    cn = s.cell_nodes[: s.n_cells_owned]
+    centre = x[cn, :2].mean(axis=1)
+    d = np.hypot(centre[:, 0] - 0.05, centre[:, 1] - 0.25)
+    c = int(np.argmin(d)) if d.size else -1
+    mine = comm.allreduce((float(d[c]) if c >= 0 else np.inf, comm.rank), op=MPI.MINLOC)[1] == comm.rank
+    if mine:
+        n0 = cn[c, 0]
+        x[n0, :2] += 1.6 * (centre[c] - x[n0, :2])
+    moved = x.copy()
+    with pytest.raises(InstabilityError, match=r"a cell inverted at step 1 .*near r = 0.0[0-9]+ m, z = 0.2"):
+        s.step()
+    assert np.array_equal(x, moved) and not np.array_equal(x, before) or not mine  # restored, not stepped
+
+
 def test_energy_terms_are_consistent(comm):
     """Stress power integrated over the run equals elastic energy + plastic dissipation
     (small strains: within 1 %), and plastic dissipation is non-negative."""

@@ -574,3 +574,39 @@ def station_matrix(history: dict, key: str, column: str, sign: float = 1.0) -> t
         rows.append(np.interp(t, history["t"][m], sign * history[column][m]))
         z.append(history["z"][m][-1])
     return t, np.array(z), np.array(rows)
+
+
+# ---------------------------------------------------------------------------- run health
+def run_health(folder) -> dict:
+    """The hard-case checks of a results folder (tests/test_hard_cases.py, benchmarks/soak.py,
+    docs/reliability.md): the run's status; the largest energy-balance error (fraction of the
+    energy scale) and mass-balance error (fraction of the mass at opening) over every sample;
+    the worst cell (min scaled Jacobian over every sample: > 0 means no inverted cell - the solver
+    also stops on one at any step); whether every number written is finite; the largest wall
+    pressure as a multiple of ρ g H (H the fill height); the discharged mass, steps and Δt range."""
+    from pathlib import Path
+
+    from silo_dolfinx.output import read_csv, read_summary
+    from silo_dolfinx.scene import load_scene
+
+    folder = Path(folder)
+    s = read_summary(folder)
+    sc = load_scene(folder / "scene.toml")
+    tables = {n: read_csv(folder / f"{n}.csv") for n in ("energy", "outlet", "mesh_quality", "wall_history")}
+    finite = all(np.all(np.isfinite(v)) for t in tables.values() if t is not None
+                 for v in t.values() if np.asarray(v).dtype.kind == "f")
+    o, q, w = tables["outlet"], tables["mesh_quality"], tables["wall_history"]
+    rho_g_h = sc.material.density * sc.loads.gravity * sc.outline.fill_height
+    return {"status": s.get("status", "missing"),
+            "energy_error_max": s.get("energy_balance_error_max", float(np.nanmax(np.abs(tables["energy"]["relative_error"])))
+                                      if tables["energy"] else np.nan),
+            "mass_error_max": float(np.abs(o["mass_balance_error"]).max()) if o is not None else np.nan,
+            "min_scaled_jacobian": float(q["min_scaled_jacobian"].min()) if q is not None else np.nan,
+            "finite": bool(finite),
+            "p_max_over_rho_g_h": float(np.nanmax(w["p_n"]) / rho_g_h) if w is not None else np.nan,
+            "discharged_mass": float(o["discharged_mass"][-1]) if o is not None else 0.0,
+            "mass_at_opening": float(o["mass_in_silo"][0] + o["discharged_mass"][0]) if o is not None else np.nan,
+            "steps": s.get("steps", 0),  # (a run that stopped: its time is the last energy sample's)
+            "simulated_time": s.get("simulated_time", float(tables["energy"]["t"][-1]) if tables["energy"] else np.nan),
+            "dt_min": float(np.nanmin(o["dt"])) if o is not None else np.nan,
+            "error": s.get("error", "")}

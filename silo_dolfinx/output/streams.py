@@ -71,6 +71,7 @@ class Outputs:
         s.check_finite()  # nothing non-finite is ever written
         for stream in self.history:
             stream.sample(stage)
+        self.results.heartbeat(stage=stage, t_reached=s.t, steps=s.steps)
 
     def stage_end(self, stage: str) -> None:
         """History sample, wall profile and fields at the end of a stage."""

@@ -87,6 +87,7 @@ class Results:
             "warnings": list(scene.warnings),
         }
         self._series: dict[str, CsvSeries] = {}
+        self._last_beat = time.time()
         self.write_summary()
 
     def path(self, name: str) -> Path:
@@ -114,6 +115,16 @@ class Results:
     def update(self, **items) -> None:
         self.summary.update(items)
         self.write_summary()
+
+    HEARTBEAT = 10.0  # s of wall-clock between the progress records in summary.json
+
+    def heartbeat(self, **progress) -> None:
+        """Record how far the run has come (stage, t_reached, steps) in summary.json, at most every
+        HEARTBEAT s: a run killed outright leaves status "running" and where it was. Rank 0 only
+        (no collective: it is called where only rank 0 may have the clock past the interval)."""
+        if self.root and time.time() - self._last_beat >= self.HEARTBEAT:
+            self._last_beat = time.time()
+            self.update(**progress)
 
     def write_summary(self) -> None:
         if not self.root:

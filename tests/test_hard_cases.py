@@ -106,6 +106,34 @@ def test_one_and_two_ranks_agree_over_the_first_thousand_steps(shared_tmp, comm)
         assert np.max(np.abs(a[col] - b[col])) <= 1e-8 * np.abs(b[col]).max(), col
 
 
+EMPTYING = ["geometry.height=0.45", "geometry.top_radius=0.25", "geometry.outlet_radius=0.08", "geometry.element_size=0.05",
+            'geometry.mesh="structured"', 'discharge.mode="free"', "discharge.duration=10", "output.stations=[0.1, 0.3]",
+            'material.cone="compression"']
+
+
+def test_a_discharge_until_nearly_empty_ends_cleanly(shared_tmp, comm):
+    """A small hopper (0.45 m, 42 kg, ~90 cells) discharged for longer than it takes to empty: the
+    mesh keeps all its rows, so as the crater reaches the outlet the last rows over it distort;
+    the discharge ends - the run completes - once the worst cell's scaled Jacobian falls below
+    discharge.min_mesh_quality (0.1), saying so in the stage record and the summary's warnings,
+    with the mass balance intact. Measured: ended at 2.23 s with 36.4 of 41.9 kg (87 %) out, mass
+    balance 1e-7. On this cone (the scenes' default, matched in compression) the discharges' energy
+    balance drifts to 1.4-1.8 % (on the extension cone: 0.06 %; neither ψ = 0 nor remapping twice as
+    often changes it): an open finding in docs/reliability.md, hence 2 % here, not the 1 % bar."""
+    out = shared_tmp / "emptying"
+    sc = load_scene(SCENES / "hopper_ch4.toml", SHORT + EMPTYING)
+    summary = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    h = run_health(out)
+    d = summary["stages"][-1]
+    assert summary["status"] == "completed" and d["ended_on"] == "mesh quality"
+    assert d["t_end"] < 5.0 and any("min_mesh_quality" in w for w in summary["warnings"])
+    assert h["discharged_mass"] > 0.8 * h["mass_at_opening"]  # nearly empty (the rest: the shoulders)
+    assert h["mass_error_max"] < 1e-6 and h["finite"]
+    assert 0.0 < h["min_scaled_jacobian"] < 0.1  # ended on the floor, never inverted
+    assert h["energy_error_max"] < 0.02
+
+
 def test_an_arch_over_the_outlet_stops_cleanly_with_its_cause(shared_tmp, comm):
     """The same abrupt, rough, sudden case on the scenes' default cone (matched in compression,
     φ 40°: it carries equal-biaxial compression without cohesion): an arch holds over the outlet,

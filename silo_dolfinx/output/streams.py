@@ -359,7 +359,8 @@ class DischargeMonitor:
         self.mass0 = self._mass_in_silo()[0]
         self._hist = deque([(s.t, 0.0)])
         self.worst_balance = 0.0
-        self.aspect0 = self._quality()[1]
+        self.min_quality, self.aspect0 = self._quality()
+        self.axis_top_height = self._z_top0
         self.flow = []  # (t, rate, v_mean, max aspect ratio, discharged, nominal) samples
 
     def _axis_top_z(self) -> float:
@@ -420,7 +421,8 @@ class DischargeMonitor:
         nominal = self.model.scene.material.density * flux  # ρ0 ∫ −v_z dA
         self.outlet_csv.write([s.t, out, inside, rate, v_mean, err, nominal, s.dt_prev])
         smin, amax = self._quality()
-        self.mesh_csv.write([s.t, self._z_top0 - self._axis_top_z(), smin, amax])
+        self.min_quality, self.axis_top_height = smin, self._axis_top_z()
+        self.mesh_csv.write([s.t, self._z_top0 - self.axis_top_height, smin, amax])
         self.flow.append((s.t, rate, v_mean, amax, out, nominal))
 
     def summary(self) -> dict:

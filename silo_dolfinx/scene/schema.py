@@ -323,6 +323,12 @@ DISCHARGE = Section(
         C("gate", ("smooth", "rough", "fixed"), "smooth",
           "How the closed outlet holds the solid before discharge: smooth (no friction), rough "
           "(wall friction law), fixed (no slip)."),
+        F("min_mesh_quality", 0.1, "-", "End the discharge early - cleanly: the run completes and its "
+          "discharge record says why - once the worst cell's scaled Jacobian (sampled at the history "
+          "rate) falls below this: the silo has drained so far (a crater down to the outlet, the last "
+          "rows over it) that the mesh, which keeps all its rows, cannot follow it. 0 = never: the run "
+          "goes on until a cell turns inside out, and then stops with an error.", lo=0.0, hi=1.0,
+          hi_open=True),
     ),
     selector="mode",
     variants={

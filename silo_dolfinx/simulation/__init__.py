@@ -97,7 +97,8 @@ def _mesh_record(scene, sm, results: Results) -> None:
 def _finish(model: SiloModel, results: Results, stages: list[dict], wall0: float) -> None:
     s = model.solver
     e = s.global_energy()
-    results.summary["warnings"] += _dilation_warnings(model.scene, stages)
+    results.summary["warnings"] += _dilation_warnings(model.scene, stages) + [st["ended_because"] for st in stages
+                                                                             if "ended_because" in st]
     results.update(stages=stages, steps=s.steps, rejected_steps=s.rejected, simulated_time=s.t,
                    energy={k: getattr(e, k) for k in ("kinetic", "elastic", "plastic", "viscous", "damping",
                                                       "gravity", "external", "contact")},

@@ -115,18 +115,35 @@ class Store(Stage):
 
 
 class Discharge(Stage):
-    """The outlet opens (the effects begin: gate removed, drive, ALE) and the silo drains."""
+    """The outlet opens (the effects begin: gate removed, drive, ALE) and the silo drains, for
+    its duration or until the mesh can no longer follow the draining fill."""
 
     def __init__(self, discharge):
         super().__init__("discharge", discharge.duration)
-        self.mode = discharge.mode
+        self.mode, self.min_quality = discharge.mode, discharge.min_mesh_quality
+        self.ended_early = ""
 
     def segments(self, model):
         model.outputs.begin_discharge(model)
         yield model.solver.t + self.duration, self.name
 
+    def stop(self, model) -> bool:
+        """The worst cell of the last mesh-quality sample (the same on every rank) below the floor."""
+        m = model.outputs.monitor
+        if m.min_quality >= self.min_quality:
+            return False
+        self.ended_early = (f"[discharge] ended at t = {model.solver.t:.4g} s, {m.flow[-1][4]:.4g} kg of "
+                            f"{m.mass0:.4g} discharged: the worst cell's scaled Jacobian fell to "
+                            f"{m.min_quality:.3f}, below min_mesh_quality = {self.min_quality:g} (the fill's top on the "
+                            f"axis {m.axis_top_height:.3g} m above the outlet). The mesh keeps all its rows and cannot "
+                            "follow the fill further; results up to here are complete. (min_mesh_quality = 0 runs on "
+                            "until a cell turns inside out.)")
+        return True
+
     def record(self, model) -> dict:
-        return {"mode": self.mode, **model.outputs.discharge_summary()}
+        ended = {"ended_on": "mesh quality", "ended_because": self.ended_early} if self.ended_early else \
+            {"ended_on": "duration"}
+        return {"mode": self.mode, **ended, **model.outputs.discharge_summary()}
 
 
 def compose(scene) -> list[Stage]:

@@ -50,6 +50,20 @@ def trial(mat, sig, de):
     return t
 
 
+def dissipations(mat, sig, de, out):
+    """(σ_new : Δε_p, σ_mid : Δε_p) summed over the points (unit volumes), with the plastic
+    strain Δε_p = Δε − C⁻¹(σ_new − σ_old): the return map's own dissipation (≥ 0 for ψ ≤ β) and
+    the one the solver books (the trapezoidal partner of its internal work)."""
+    ds = out - sig
+    lam = mat.K - 2 * mat.G / 3
+    c = lam / (3 * lam + 2 * mat.G)
+    dee = np.empty_like(ds)
+    dee[:, :3] = (ds[:, :3] - c * ds[:, :3].sum(axis=1)[:, None]) / (2 * mat.G)
+    dee[:, 3] = ds[:, 3] / mat.G
+    dep = de - dee
+    return float((out * dep).sum()), float((0.5 * (sig + out) * dep).sum())
+
+
 def test_returned_stress_lies_on_the_yield_surface():
     mat = dp()
     sig, de = random_states(4000)
@@ -62,7 +76,9 @@ def test_returned_stress_lies_on_the_yield_surface():
     scale = np.maximum(np.abs(p), 1.0) * mat.tan_beta + mat.cohesion
     assert np.all(np.abs(f_new[plastic]) <= 1e-10 * scale[plastic])  # relative 1e-10
     assert np.all(f_new <= 1e-10 * scale)
-    assert diss >= 0.0  # ψ ≤ β: non-negative dissipation
+    end, mid = dissipations(mat, sig, de, out)
+    assert end >= 0.0  # ψ ≤ β: the return map dissipates
+    assert diss == pytest.approx(mid, rel=1e-9)  # what update reports: σ_mid : Δε_p
 
 
 def test_elastic_states_are_untouched():
@@ -209,7 +225,8 @@ def test_tension_cutoff_of_steep_cones(phi):
     tol = 1e-10 * np.abs(sig).max()
     assert np.all(_principal(out) <= mat.tension_cutoff + tol)
     assert np.all(mat.yield_function(out) <= 1e-10 * np.abs(sig).max())
-    assert diss >= 0.0
+    end, mid = dissipations(mat, sig, de, out)
+    assert end >= 0.0 and diss == pytest.approx(mid, rel=1e-9)
     t = trial(mat, sig, de)
     fine = (mat.yield_function(t) <= 0) & (_principal(t) <= mat.tension_cutoff)
     assert fine.sum() > 100 and np.allclose(out[fine], t[fine], rtol=1e-14, atol=1e-9)

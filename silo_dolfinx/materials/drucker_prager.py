@@ -126,7 +126,7 @@ def _max_principal(s0, s1, s2, s3):
 @numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
 def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
     """The return map (module docstring) over all points, written out in scalars (the hot
-    loop of a plastic step); also the plastic dissipation σ : Δε_p and ε̄_p.
+    loop of a plastic step); also the plastic dissipation σ_mid : Δε_p and ε̄_p.
 
     law = (K, G, tan β, tan ψ, d, c_nc, eqps_c, T) (:attr:`DruckerPrager.parameters`).
     c_nc = 4G²/(H_nc + 2G) > 0 adds the yield-vertex non-coaxial plastic strain (eq. 8-11)
@@ -172,8 +172,9 @@ def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
                     sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0n, s1n, s2n, s3n
                     r0, r1, r2, r3 = e0t - s0n, e1t - s1n, e2t - s2n, e3t - s3n
                     rt = r0 + r1 + r2
-                    diss += dV[i] * (s0n * (r0 - c * rt) + s1n * (r1 - c * rt) + s2n * (r2 - c * rt)) / two_g \
-                        + dV[i] * s3n * r3 / G
+                    m0, m1, m2, m3 = sig[i, 0] + s0n, sig[i, 1] + s1n, sig[i, 2] + s2n, sig[i, 3] + s3n  # 2 σ_mid
+                    diss += 0.5 * dV[i] * ((m0 * (r0 - c * rt) + m1 * (r1 - c * rt) + m2 * (r2 - c * rt)) / two_g
+                                           + m3 * r3 / G)
                     eqps_new[i] = eqps[i]
                     continue
         tanpsi = tanpsi0 if eqps[i] < eqps_c else 0.0
@@ -193,14 +194,17 @@ def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
             s0, s1, s2, s3 = _principal_cap(s0, s1, s2, s3, T, lam, two_g)
         sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0, s1, s2, s3
         # plastic strain Δε_p = C⁻¹ (σ_trial,elastic − σ_new) (coaxial + non-coaxial) and its
-        # dissipation σ_new : Δε_p
+        # dissipation σ_mid : Δε_p, σ_mid the mean of the step's start (rotated) and end stress:
+        # the partner of the trapezoidal internal work ½(σ_n + σ_n+1) : Δε, so that work = Δ(elastic
+        # energy) + dissipation holds to second order in Δt (σ_new : Δε_p leaves a first-order gap,
+        # 1.8 % of the work in a discharge on the compression-matched cone at time_step_scale 0.8)
         r0, r1, r2, r3 = e0t - s0, e1t - s1, e2t - s2, e3t - s3
         rt = r0 + r1 + r2
         p0 = (r0 - c * rt) / two_g
         p1 = (r1 - c * rt) / two_g
         p2 = (r2 - c * rt) / two_g
         p3 = r3 / G
-        diss += dV[i] * (s0 * p0 + s1 * p1 + s2 * p2 + s3 * p3)
+        diss += 0.5 * dV[i] * ((sig[i, 0] + s0) * p0 + (sig[i, 1] + s1) * p1 + (sig[i, 2] + s2) * p2 + (sig[i, 3] + s3) * p3)
         if apex:
             pm = (p0 + p1 + p2) * (1.0 / 3.0)
             eqps_new[i] = eqps[i] + math.sqrt(2.0 / 3.0 * ((p0 - pm) ** 2 + (p1 - pm) ** 2 + (p2 - pm) ** 2

@@ -142,7 +142,8 @@ def test_an_arch_over_the_outlet_stops_cleanly_with_its_cause(shared_tmp, comm):
     cell and the fix, with everything written so far readable and finite."""
     out = shared_tmp / "arch"
     sc = load_scene(SCENES / "bin_hopper_ch7_abrupt.toml",
-                    SHORT + BIN + ["wall.mu=0.9", 'discharge.mode="free"', 'material.cone="compression"'])
+                    SHORT + BIN + ["wall.mu=0.9", 'discharge.mode="free"', 'material.cone="compression"',
+                                   "numerics.min_time_step_fraction=0.05"])  # Δt/20: the density /400, sooner
     with pytest.raises(InstabilityError, match=r"It has emptied.*material.cone = \"extension\""):
         run(sc, out, comm, progress_every=1e9)
     comm.barrier()

@@ -380,3 +380,34 @@ def test_wall_profiles_are_the_same_on_1_and_2_ranks(shared_tmp, comm):
     for k in ("s", "r", "z", "p_n", "p_s"):
         scale = np.abs(a[k]).max()
         assert np.allclose(a[k], b[k], rtol=1e-8, atol=1e-8 * scale), k
+
+
+def test_wall_pressure_near_the_free_surface_is_exact_at_the_material_depth(shared_tmp, comm):
+    """Elastic column (H 2.5 m, R 0.5 m, E 5 MPa, ν 0.3) between frictionless walls, ramp-filled
+    and stored at rest: p_n = ν/(1 − ν) ρ g d at every wall node, to 1e-3 (measured 2e-5),
+    from the base up to d = H/50 below the surface - provided the depth d is the material's
+    (Lagrangian) depth H − Z. Measured against the current height z, p_n reads low near the top
+    (3 % at a fifth of the height in the issue's report) because the fill has settled by
+    u(Z) = (ρg/M)(H Z − Z²/2), 4.6 mm at the top here: the "error" is exactly δ(Z)/d. The base
+    corner node (tributary area shared with the base) reads 2 % low; it is excluded."""
+    H, R, h, E, nu, rho, g = 2.5, 0.5, 0.1, 5e6, 0.3, 1000.0, 9.81
+    sc = load_scene({"geometry": {"shape": "column", "base_radius": R, "height": H, "element_size": h},
+                     "material": {"model": "elastic", "density": rho, "youngs_modulus": E, "poisson_ratio": nu},
+                     "wall": {"friction": "none"}, "fill": {"method": "ramp", "duration": 2.0, "damping": 0.5},
+                     "store": {"duration": 2.0}, "output": {"field_interval": 0.0}})
+    run(sc, shared_tmp / "column_at_rest", comm, progress_every=1e9)
+    comm.barrier()
+    w = read_csv(shared_tmp / "column_at_rest" / "wall_profile_store.csv")
+    M, K = theory.constrained_modulus(E, nu), nu / (1 - nu)
+    z, a = w["z"], rho * g / M
+    Z = z.copy()
+    for _ in range(30):  # invert z = Z − a (H Z − Z²/2) for the material height Z
+        Z = z + a * (H * Z - Z ** 2 / 2)
+    depth = H - Z
+    inner = (Z > 0.5 * h) & (depth > H / 50)
+    assert inner.sum() >= 20
+    assert np.all(np.abs(w["p_n"][inner] / (K * rho * g * depth[inner]) - 1) < 1e-3)
+    fifth = np.argmin(np.abs(depth - H / 5))
+    settled = a * (H * Z[fifth] - Z[fifth] ** 2 / 2)
+    current = w["p_n"][fifth] / (K * rho * g * (H - z[fifth]))
+    assert abs(current - (1 - settled / (H - z[fifth]))) < 1e-3  # the current-height reading: low by δ/d

@@ -448,6 +448,30 @@ def strain_rate_orientation(d):
     return principal_angle(d[:, 0], d[:, 1], 0.5 * d[:, 3], "largest")
 
 
+def cell_oscillation(corners, values, decimals: int = 9) -> np.ndarray:
+    """Each cell's value minus the mean of its edge neighbours' (0 for a cell without any):
+    zero inside a linear field, ±2a for a checkerboard ±a - the measure of a spurious
+    cell-to-cell mode (e.g. q/p above an outlet). Cells are (n, 4, 2) corner arrays (a
+    snapshot's ``corners``); neighbours share an edge's two corners (to ``decimals``)."""
+    c = np.round(np.asarray(corners, float), decimals)
+    n = c.shape[0]
+    a = c.reshape(n * 4, 2)
+    b = np.roll(c, -1, axis=1).reshape(n * 4, 2)
+    lo = np.where((a[:, :1] < b[:, :1]) | ((a[:, :1] == b[:, :1]) & (a[:, 1:] < b[:, 1:])), a, b)
+    hi = np.where(lo == a, b, a)
+    key = np.concatenate([lo, hi], axis=1)
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    cell = np.repeat(np.arange(n), 4)
+    order = np.argsort(inv.ravel(), kind="stable")
+    e, cl = inv.ravel()[order], cell[order]
+    pair = np.nonzero(e[1:] == e[:-1])[0]  # interior edges: two cells
+    i, j = cl[pair], cl[pair + 1]
+    v = np.asarray(values, float)
+    s = np.bincount(i, v[j], n) + np.bincount(j, v[i], n)
+    k = np.bincount(i, minlength=n) + np.bincount(j, minlength=n)
+    return np.where(k > 0, v - s / np.maximum(k, 1), 0.0)
+
+
 def section_average(corners, values, z) -> np.ndarray:
     """Cross-section average at heights z of a cell field: ∫ v 2πr dA over the cells whose
     vertical extent contains z, divided by their ∫ 2πr dA (a volume-weighted mean over a

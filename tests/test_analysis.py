@@ -265,3 +265,18 @@ def test_discharged_volume_and_steady_flow_on_known_series():
     assert analysis.steady_flow_start(t, mass, 1.0, 0.1) == pytest.approx(3.0)
     growing = 0.5 * t ** 2
     assert np.isnan(analysis.steady_flow_start(t, growing, 1.0, 0.1))
+
+
+def test_cell_oscillation_sees_a_checkerboard_and_not_a_linear_field():
+    """Cell minus the mean of its edge neighbours: 0 inside a linear field, ±2a for a ±a
+    checkerboard (the issue's q/p mode above an outlet), on a 6 × 5 grid of unit-aspect cells."""
+    xs, zs = np.arange(7) * 0.1, np.arange(6) * 0.1
+    corners = np.array([[[xs[i], zs[j]], [xs[i + 1], zs[j]], [xs[i + 1], zs[j + 1]], [xs[i], zs[j + 1]]]
+                        for j in range(5) for i in range(6)])
+    linear = np.array([2 * xs[i] + 3 * zs[j] for j in range(5) for i in range(6)])
+    board = np.array([(-1.0) ** (i + j) for j in range(5) for i in range(6)])
+    inner = np.zeros((5, 6), bool)
+    inner[1:-1, 1:-1] = True
+    inner = inner.ravel()
+    assert np.abs(analysis.cell_oscillation(corners, linear)[inner]).max() < 1e-12
+    assert np.allclose(np.abs(analysis.cell_oscillation(corners, board)[inner]), 2.0, rtol=1e-12)

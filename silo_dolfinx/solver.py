@@ -126,6 +126,7 @@ class ExplicitSolver:
         self.energy_scale = 0.0
         self.t, self.steps, self.rejected = 0.0, 0, 0
         self.dt_prev, self.dt, self.dt_crit = 0.0, 0.0, math.inf
+        self._dt_crit0 = math.inf  # the stable Δt at the last rebuild (collapse guard)
         self.dt_reference = 0.0  # the stable Δt at the last activation ([numerics] min_time_step_fraction)
         self._increment = (0.0, 0.0, 0.0)  # (plastic, viscous, internal work) of the last step
         self._active = None
@@ -345,7 +346,7 @@ class ExplicitSolver:
                     f"{where[1]:.3g} m: a corner turned inside out (the step is not kept; the results up to the "
                     f"last sample stand): {self._distortion_hint()}")
         return (f"an element collapsed at step {self.steps} (t = {self.t:.6g} s; stable Δt fell from "
-                f"{getattr(self, '_dt_crit0', math.nan):.3g} to {dt_crit:.3g} s): {self._distortion_hint()}")
+                f"{self._dt_crit0:.3g} to {dt_crit:.3g} s): {self._distortion_hint()}")
 
     def _distortion_hint(self) -> str:
         scale = self.numerics.time_step_scale

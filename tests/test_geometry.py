@@ -135,41 +135,40 @@ def test_wall_that_crosses_the_material(shared_tmp, comm):
         mesh_scene(load_scene(scene_dict(narrower)), comm)
 
 
-def test_mesh_that_is_not_a_silo(shared_tmp, comm):
-    """A tagged quad mesh straddling the axis (r < 0) is refused."""
-    path = shared_tmp / "square.msh"
+def _gmsh_file(path, comm, build, **options):
+    """Write ``path`` with gmsh on rank 0 (``build(gmsh, path)`` adds the model and writes it)."""
     if comm.rank == 0:
         import gmsh
 
         gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("square")
-        s = gmsh.model.occ.addRectangle(-0.5, 0.0, 0.0, 1.0, 1.0)
-        gmsh.model.occ.synchronize()
-        gmsh.option.setNumber("Mesh.RecombineAll", 1)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
-        gmsh.model.mesh.generate(2)
-        curves = [c for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)]
-        gmsh.model.addPhysicalGroup(2, [s], 1, "material")
-        for tag, (name, c) in enumerate(zip(("outlet", "wall", "top", "axis"), curves), start=1):
-            gmsh.model.addPhysicalGroup(1, [c], tag, name)
-        gmsh.write(str(path))
+        for k, v in options.items():
+            gmsh.option.setNumber(f"Mesh.{k}", v)
+        gmsh.model.add(path.stem)
+        build(gmsh, path)
         gmsh.finalize()
     comm.barrier()
-    g = {**SHAPES["hopper"], "mesh_file": str(path)}
-    with pytest.raises(MeshingError, match="not a silo"):
-        mesh_scene(load_scene(scene_dict(g)), comm)
+    return path
 
 
-def _triangles(gmsh, path):
-    s = gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 1.0, 1.0)
+def _rectangle(gmsh, path, x0=0.0, tags=("outlet", "wall", "top", "axis")):
+    """A unit square from (x0, 0), its surface tagged 'material' and its sides ``tags``."""
+    s = gmsh.model.occ.addRectangle(x0, 0.0, 0.0, 1.0, 1.0)
     gmsh.model.occ.synchronize()
     gmsh.model.mesh.generate(2)
     curves = [c for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)]
     gmsh.model.addPhysicalGroup(2, [s], 1, "material")
-    for tag, (name, c) in enumerate(zip(("outlet", "wall", "top", "axis"), curves), start=1):
+    for tag, (name, c) in enumerate(zip(tags, curves), start=1):
         gmsh.model.addPhysicalGroup(1, [c], tag, name)
     gmsh.write(str(path))
+
+
+def _straddling(gmsh, path):
+    _rectangle(gmsh, path, x0=-0.5)
+
+
+def _untagged(gmsh, path):
+    _rectangle(gmsh, path, tags=())
 
 
 def _box(gmsh, path):
@@ -184,42 +183,26 @@ def _text(gmsh, path):
     path.write_text("$MeshFormat\nnot a mesh\n")
 
 
-@pytest.mark.parametrize("build,reason", [(_triangles, "cells are triangle, not quadrilaterals"),
+def _refused(path, comm, match):
+    with pytest.raises(MeshingError, match=match):
+        mesh_scene(load_scene(scene_dict({**SHAPES["hopper"], "mesh_file": str(path)})), comm)
+
+
+def test_mesh_that_is_not_a_silo(shared_tmp, comm):
+    """A tagged quad mesh straddling the axis (r < 0) is refused."""
+    path = _gmsh_file(shared_tmp / "square.msh", comm, _straddling, RecombineAll=1, MeshSizeMax=0.2)
+    _refused(path, comm, "not a silo")
+
+
+@pytest.mark.parametrize("build,reason", [(_rectangle, "cells are triangle, not quadrilaterals"),
                                           (_box, "it is a 3D mesh"), (_text, "gmsh cannot read it")],
                          ids=["triangles", "3d", "not-gmsh"])
 def test_mesh_file_that_is_not_a_silo_mesh(shared_tmp, comm, build, reason):
     """Triangles (the explicit scheme is written for Q1 quadrilaterals), a 3D mesh, a file gmsh
     cannot parse: each refused naming mesh_file, its reason and a fix - not DOLFINx's error."""
-    path = shared_tmp / f"{build.__name__}.msh"
-    if comm.rank == 0:
-        import gmsh
-
-        gmsh.initialize(interruptible=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.3)
-        gmsh.model.add("bad")
-        build(gmsh, path)
-        gmsh.finalize()
-    comm.barrier()
-    with pytest.raises(MeshingError, match=f"mesh_file = '{path.name}': {reason}.*Fix"):
-        mesh_scene(load_scene(scene_dict({**SHAPES["hopper"], "mesh_file": str(path)})), comm)
+    path = _gmsh_file(shared_tmp / f"{build.__name__}.msh", comm, build, MeshSizeMax=0.3)
+    _refused(path, comm, f"mesh_file = '{path.name}': {reason}.*Fix")
 
 
 def test_mesh_without_tags_is_refused(shared_tmp, comm):
-    path = shared_tmp / "untagged.msh"
-    if comm.rank == 0:
-        import gmsh
-
-        gmsh.initialize(interruptible=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("u")
-        s = gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 1.0, 1.0)
-        gmsh.model.occ.synchronize()
-        gmsh.option.setNumber("Mesh.RecombineAll", 1)
-        gmsh.model.mesh.generate(2)
-        gmsh.model.addPhysicalGroup(2, [s], 1, "material")
-        gmsh.write(str(path))
-        gmsh.finalize()
-    comm.barrier()
-    with pytest.raises(MeshingError, match="physical groups"):
-        mesh_scene(load_scene(scene_dict({**SHAPES["hopper"], "mesh_file": str(path)})), comm)
+    _refused(_gmsh_file(shared_tmp / "untagged.msh", comm, _untagged, RecombineAll=1), comm, "physical groups")

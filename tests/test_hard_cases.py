@@ -155,6 +155,12 @@ def test_an_arch_over_the_outlet_stops_cleanly_with_its_cause(shared_tmp, comm):
     assert o["t"][-1] - o["t"][0] < 1.0  # stopped within the discharge, not at its end
 
 
+def mpirun(ranks: int) -> list[str]:
+    """The launcher beside this Python (the wheel's MPICH), else the one on PATH."""
+    exe = Path(sys.executable).parent / "mpirun"
+    return [str(exe) if exe.exists() else "mpirun", "-n", str(ranks)]
+
+
 RANK_LOCAL_ERROR = """
 import sys
 import silo_dolfinx  # noqa: F401
@@ -189,9 +195,8 @@ def test_an_error_on_one_rank_never_hangs_the_others(tmp_path):
     every rank: the job ends, non-zero, naming the error."""
     script = tmp_path / "fail.py"
     script.write_text(RANK_LOCAL_ERROR)
-    mpirun = Path(sys.executable).parent / "mpirun"
     env = subprocess_env()
-    done = subprocess.run([str(mpirun) if mpirun.exists() else "mpirun", "-n", "2", sys.executable, str(script),
+    done = subprocess.run([*mpirun(2), sys.executable, str(script),
                            str(SCENES / "hopper_ch3_ale.toml"), str(tmp_path / "out")],
                           capture_output=True, text=True, timeout=120, env=env)
     assert done.returncode != 0
@@ -228,9 +233,8 @@ def test_a_run_killed_mid_discharge_leaves_readable_results(tmp_path, ranks):
     out = tmp_path / "out"
     scene, sets, _ = CASES["abrupt_rough_sudden"]
     cmd = [sys.executable, str(script), str(SCENES / f"{scene}.toml"), str(out), *SHORT, *sets, "discharge.duration=60"]
-    mpirun = Path(sys.executable).parent / "mpirun"
     if ranks > 1:
-        cmd = [str(mpirun) if mpirun.exists() else "mpirun", "-n", str(ranks), *cmd]
+        cmd = [*mpirun(ranks), *cmd]
     job = subprocess.Popen(cmd, env=subprocess_env(), start_new_session=True, stdout=subprocess.DEVNULL,
                            stderr=subprocess.PIPE)
     try:

@@ -130,7 +130,7 @@ class Discharge(Stage):
     def stop(self, model) -> bool:
         """The worst cell of the last mesh-quality sample (the same on every rank) below the floor."""
         m = model.outputs.monitor
-        if m.min_quality >= self.min_quality:
+        if not m.flow or m.min_quality >= self.min_quality:  # no verdict before the first sample
             return False
         self.ended_early = (f"[discharge] ended at t = {model.solver.t:.4g} s, {m.flow[-1][4]:.4g} kg of "
                             f"{m.mass0:.4g} discharged: the worst cell's scaled Jacobian fell to "

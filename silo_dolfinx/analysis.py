@@ -13,6 +13,7 @@ import numpy as np
 
 from silo_dolfinx.geometry.cells import cell_areas
 from silo_dolfinx.invariants import p_q
+from silo_dolfinx.invariants import stress_ratio as _ratio
 
 
 # ---------------------------------------------------------------------------- time series
@@ -415,10 +416,11 @@ def invariants(sig):
     return p_q(sig)
 
 
-def stress_ratio(sig, p_min: float = 1e-9):
-    """q/p (eq. 4-11); 0 where p ≤ p_min."""
+def stress_ratio(sig, p_min: float = 0.0):
+    """q/p (eq. 4-11) of (n, 4) stresses; NaN where p ≤ p_min (stress-free:
+    :func:`silo_dolfinx.invariants.stress_ratio`)."""
     p, q = invariants(sig)
-    return np.where(p > p_min, q / np.maximum(p, p_min), 0.0)
+    return _ratio(p, q, p_min)
 
 
 def principal_angle(t_rr, t_zz, t_rz, major: str = "compressive"):
@@ -452,7 +454,9 @@ def cell_oscillation(corners, values, decimals: int = 9) -> np.ndarray:
     """Each cell's value minus the mean of its edge neighbours' (0 for a cell without any):
     zero inside a linear field, ±2a for a checkerboard ±a - the measure of a spurious
     cell-to-cell mode (e.g. q/p above an outlet). Cells are (n, 4, 2) corner arrays (a
-    snapshot's ``corners``); neighbours share an edge's two corners (to ``decimals``)."""
+    snapshot's ``corners``); neighbours share an edge's two corners (to ``decimals``). NaN
+    values (an undefined q/p) take no part: such a cell gets NaN, its neighbours average the
+    others."""
     c = np.round(np.asarray(corners, float), decimals)
     n = c.shape[0]
     a = c.reshape(n * 4, 2)
@@ -467,9 +471,39 @@ def cell_oscillation(corners, values, decimals: int = 9) -> np.ndarray:
     pair = np.nonzero(e[1:] == e[:-1])[0]  # interior edges: two cells
     i, j = cl[pair], cl[pair + 1]
     v = np.asarray(values, float)
-    s = np.bincount(i, v[j], n) + np.bincount(j, v[i], n)
-    k = np.bincount(i, minlength=n) + np.bincount(j, minlength=n)
-    return np.where(k > 0, v - s / np.maximum(k, 1), 0.0)
+    ok = np.isfinite(v)
+    w = np.where(ok, v, 0.0)
+    s = np.bincount(i, w[j], n) + np.bincount(j, w[i], n)
+    k = np.bincount(i, ok[j], n) + np.bincount(j, ok[i], n)
+    return np.where(ok, np.where(k > 0, v - s / np.maximum(k, 1), 0.0), np.nan)
+
+
+def outlet_zone_oscillation(snapshot: dict, outlet_radius: float, zone: float = 0.15, flowing: float = 0.05,
+                            field: str = "cell_q_over_p") -> dict:
+    """The cell-to-cell oscillation of a snapshot's cell field (RMS of :func:`cell_oscillation`)
+    in the outlet zone - the flowing cells whose centroid lies within ``zone`` of the outlet
+    (r ≤ outlet_radius at z = 0) - against the rest of the flowing region (cells whose mean
+    corner speed is at least ``flowing`` × the fastest cell's). Returns the two RMS values (over
+    the cells where the field is defined), their ratio, the cell counts and the outlet zone's
+    undefined (stress-free) cells: a spurious mode at the outlet shows as a ratio well above 1."""
+    c = np.asarray(snapshot["corners"], float)
+    n_nodes = len(snapshot["node_xy"])
+    keys = np.round(np.concatenate([np.asarray(snapshot["node_xy"], float), c.reshape(-1, 2)]), 9)
+    _, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    speed = np.zeros(inv.max() + 1)
+    speed[inv[:n_nodes]] = np.linalg.norm(np.asarray(snapshot["node_velocity"], float), axis=1)
+    cell_speed = speed[inv[n_nodes:]].reshape(-1, 4).mean(axis=1)
+    moving = cell_speed >= flowing * cell_speed.max()
+    centre = c.mean(axis=1)
+    near = np.hypot(np.maximum(centre[:, 0] - outlet_radius, 0.0), centre[:, 1]) < zone
+    osc = cell_oscillation(c, snapshot[field])
+    defined = np.isfinite(osc)
+    rms = [float(np.sqrt(np.mean(osc[sel] ** 2))) if sel.any() else float("nan")
+           for sel in (moving & near & defined, moving & ~near & defined)]
+    return {"outlet_rms": rms[0], "rest_rms": rms[1], "ratio": rms[0] / rms[1],
+            "outlet_cells": int((moving & near).sum()), "rest_cells": int((moving & ~near).sum()),
+            "outlet_stress_free": int((moving & near & ~defined).sum())}
 
 
 def section_average(corners, values, z) -> np.ndarray:

@@ -3,6 +3,7 @@
     silo check SCENE [--set section.key=value ...]     validate, print the resolved scene
     silo mesh SCENE -o meshes/NAME.msh [--show]        write the gmsh mesh (and a PNG of it)
     silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
+    silo run --resume results/NAME                     continue a killed run from its last checkpoint
     silo report results/NAME                           figures + report.md from a results folder
     silo shear --out results/shear [--cone thesis]     the ch. 8 simple-shear study (Table 8-1)
     silo schema [--results]                            print the scene (or results-file) reference
@@ -37,8 +38,13 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument("-o", "--output", required=True, help="output .msh file")
     sp.add_argument("--show", action="store_true", help="also write a PNG of the mesh next to it")
     sp = sub.add_parser("run", help="run a scene into a results folder")
-    scene_args(sp)
-    sp.add_argument("--out", required=True, help="results folder (created; files are overwritten)")
+    sp.add_argument("scene", nargs="?", help="scene file (TOML); not with --resume")
+    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                    help="override a scene key (repeatable), e.g. --set material.density=1500")
+    sp.add_argument("--out", help="results folder (created; files are overwritten)")
+    sp.add_argument("--resume", metavar="FOLDER",
+                    help="continue the killed run in FOLDER from its last checkpoint (its own scene.toml; as many "
+                    "ranks as wrote it)")
     sp.add_argument("--progress", type=float, default=5.0, metavar="SECONDS",
                     help="seconds between progress lines on rank 0 (default 5)")
     sp = sub.add_parser("report", help="figures and report.md from a results folder")
@@ -93,9 +99,10 @@ def main(argv: list[str] | None = None) -> int:
 
 def _user_errors():
     from silo_dolfinx.geometry.mesher import MeshingError
+    from silo_dolfinx.checkpoint import CheckpointError
     from silo_dolfinx.solver import InstabilityError
 
-    return (MeshingError, InstabilityError)
+    return (MeshingError, InstabilityError, CheckpointError)
 
 
 def _abort_other_ranks() -> None:
@@ -202,11 +209,27 @@ def _shear(args) -> int:
 def _run(args) -> int:
     from silo_dolfinx.simulation import run
 
-    scene = load_scene(args.scene, args.overrides)
+    if args.resume:
+        if args.scene or args.overrides or args.out:
+            _error("error: silo run --resume FOLDER takes no scene, --set or --out: a run resumes with the scene it "
+                   "was started with (FOLDER/scene.toml), into its own folder.")
+            return 2
+        from mpi4py import MPI
+
+        from silo_dolfinx.checkpoint import load
+
+        load(args.resume, MPI.COMM_WORLD)  # a folder that cannot be resumed is refused first, saying why
+        args.out = args.resume
+        scene = load_scene(Path(args.resume) / "scene.toml", [])
+    elif not args.scene or not args.out:
+        _error("error: silo run needs a scene and --out FOLDER (or --resume FOLDER to continue a killed run).")
+        return 2
+    else:
+        scene = load_scene(args.scene, args.overrides)
     if _rank() == 0:
         for w in scene.warnings:
             print(f"warning: {w}", file=sys.stderr)
-    summary = run(scene, args.out, progress_every=args.progress)
+    summary = run(scene, args.out, progress_every=args.progress, resume=bool(args.resume))
     if _rank() == 0:
         print(f"{args.out}: {summary['status']}; {summary['steps']:,} steps, simulated {summary['simulated_time']:.4g} s "
               f"in {summary['wall_clock_s']:.1f} s ({summary['steps_per_second']:,.0f} steps/s); energy balance "

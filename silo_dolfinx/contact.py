@@ -72,6 +72,8 @@ class FrictionLaw:
 class WallContact:
     """Kinematic contact of a node set with an analytic wall; one friction law per piece."""
 
+    CHECKPOINT = ("normal_force", "shear_force", "slip_velocity", "in_contact", "s", "normal", "_p")
+
     def __init__(self, wall: Wall, nodes: np.ndarray, dofs: np.ndarray, laws: list[FrictionLaw]):
         """``nodes``: geometry-node indices (owned only), ``dofs``: their velocity block indices,
         ``laws``: a friction law per wall piece."""

@@ -43,6 +43,26 @@ def deviator_q_p(t0, t1, t2, t3):
     return d0, d1, d2, q, -m
 
 
+STRESS_FREE = 1e-3  # a mean pressure below this × ρ g H: the solid is all but stress-free
+
+
+def stress_free_pressure(density: float, gravity: float, height: float) -> float:
+    """The mean pressure below which a cell counts as stress-free: the weight of a thousandth of
+    the fill's height (2.6 Pa... 26 Pa in the thesis' silos). Below it the solid has separated -
+    stretched to the cone's apex (q = 0, p = −c/tan β), as in the free-fall zone over an outlet
+    or a crater - and q/p is the ratio of two numbers near zero."""
+    return STRESS_FREE * density * gravity * height
+
+
+def stress_ratio(p, q, p_min: float) -> np.ndarray:
+    """q/p (eq. 4-11), NaN where p ≤ p_min (:func:`stress_free_pressure`): undefined, not 0 -
+    a separated cell at the apex is on the yield surface, not far from it, and drawing it as
+    0 beside its neighbours on the cone (q/p = tan β) showed as a checkerboard above outlets."""
+    p = np.asarray(p, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(p > p_min, np.asarray(q, float) / p, np.nan)
+
+
 def p_q(sig) -> tuple[np.ndarray, np.ndarray]:
     """(p, q) of (n, 4) stresses."""
     s = np.atleast_2d(np.asarray(sig, float))

@@ -777,7 +777,8 @@ class Report:
             d = np.load(snaps[i])
             c = d["corners"]
             sig = np.column_stack([d[f"cell_stress_{k}"] for k in ("rr", "zz", "tt", "rz")])
-            poly = PolyCollection(c, array=analysis.stress_ratio(sig), cmap="viridis", clim=(0.0, 1.5))
+            cmap = plt.get_cmap("viridis").with_extremes(bad="lightgrey")  # stress-free cells: q/p undefined
+            poly = PolyCollection(c, array=analysis.stress_ratio(sig, self._stress_free()), cmap=cmap, clim=(0.0, 1.5))
             ax.add_collection(poly)
             angle = np.radians(analysis.stress_orientation(sig))
             area = analysis.cell_areas(c)
@@ -795,8 +796,15 @@ class Report:
             ax.set_xlabel("r (m)")
         axes[0][0].set_ylabel("z (m)")
         fig.colorbar(poly, ax=axes[0].tolist(), shrink=0.7, label="q/p")
-        self._save(fig, "stress_fields.png", "Stress ratio q/p (colour, eq. 4-11) and the major principal stress "
-                   "direction (white; Figs. 4-5, 4-19) at " + ", ".join(f"{t_snap[i]:.3g}" for i in chosen) + " s.")
+        self._save(fig, "stress_fields.png", "Stress ratio q/p (colour, eq. 4-11; grey: stress-free, separated at the "
+                   "cone's apex) and the major principal stress direction (white; Figs. 4-5, 4-19) at " + ", ".join(f"{t_snap[i]:.3g}" for i in chosen) + " s.")
+
+    def _stress_free(self) -> float:
+        """Mean pressure below which a cell is stress-free (its q/p undefined)."""
+        from silo_dolfinx.invariants import stress_free_pressure
+
+        sc = self.scene
+        return stress_free_pressure(sc.material.density, sc.loads.gravity, sc.geometry.fill_height) if sc else 0.0
 
     def renders(self) -> None:
         snap = self._snapshot()
@@ -815,7 +823,8 @@ class Report:
         if "cell_q_over_p" in snap:
             grid = pv.UnstructuredGrid(cells, np.full(n, pv.CellType.QUAD, np.uint8), pts)
             grid.cell_data["q/p"] = snap["cell_q_over_p"]
-            self._render(grid, "q/p", "field_q_over_p.png", f"Stress ratio q/p (eq. 4-11) at t = {float(snap['t']):.3g} s.")
+            self._render(grid, "q/p", "field_q_over_p.png", f"Stress ratio q/p (eq. 4-11) at t = {float(snap['t']):.3g} s "
+                         "(grey: stress-free cells, separated at the cone's apex, where q/p is undefined).")
         speed = np.linalg.norm(snap["node_velocity"], axis=1)
         cloud = pv.PolyData(np.column_stack([snap["node_xy"], np.zeros(len(speed))]))
         cloud.point_data["|v| (m/s)"] = speed
@@ -829,7 +838,7 @@ class Report:
         if points:
             p.add_mesh(mesh, scalars=scalars, point_size=6, render_points_as_spheres=True, cmap="viridis")
         else:
-            p.add_mesh(mesh, scalars=scalars, cmap="viridis", show_edges=False)
+            p.add_mesh(mesh, scalars=scalars, cmap="viridis", show_edges=False, nan_color="lightgrey")
         p.view_xy()
         p.screenshot(str(self.folder / name))
         p.close()

@@ -79,9 +79,15 @@ class VelocityConstraint:
     value: Callable[[float], float] | None = None
 
 
+def full(t: float) -> float:
+    """The amplitude of a load that is on in full (a module function: loads are checkpointed)."""
+    return 1.0
+
+
 @dataclass
 class LoadGroup:
-    """A nodal force (block array) times an amplitude a(t)."""
+    """A nodal force (block array) times an amplitude a(t) (data or a module function, not a
+    closure, for a run that writes checkpoints: :class:`silo_dolfinx.simulation.effects.SmoothRamp`)."""
 
     force: np.ndarray
     amplitude: Callable[[float], float]
@@ -95,6 +101,10 @@ class ExplicitSolver:
     double-buffered), ``nodes`` (lumped mass and nodal vectors) and ``energy`` (the ledger).
     The scene's effects attach themselves as ``loads``, ``constraints`` and ``contacts``; a
     post-step ``hook`` (ALE) may ask the step to skip its internal force (``defer_force``)."""
+
+    # what a checkpoint keeps (silo_dolfinx.checkpoint): every number the next step reads
+    CHECKPOINT = ("t", "steps", "rejected", "dt_prev", "dt", "dt_crit", "_dt_crit0", "dt_reference", "_increment",
+                  "energy_scale", "damping", "defer_force", "_force_stale", "energy", "nodes", "q", "f_int", "loads")
 
     def __init__(self, mesh, material: Material, numerics: Numerics | None = None, *, gravity: float = 0.0):
         from dolfinx import la
@@ -202,7 +212,7 @@ class ExplicitSolver:
         return self.forms.lumped_mass(self.rho.reshape(-1, self.nq)[pos], cells)
 
     # ------------------------------------------------------------------ loads
-    def add_gravity(self, cells: np.ndarray | None = None, amplitude: Callable[[float], float] = lambda t: 1.0):
+    def add_gravity(self, cells: np.ndarray | None = None, amplitude: Callable[[float], float] = full):
         """Gravity −g ẑ on the mass of ``cells`` (default: all active), scaled by amplitude(t)."""
         m = self.mass if cells is None else self.nodal_mass_of(cells)
         f = np.zeros((self.n_nodes, 2))

@@ -51,6 +51,8 @@ class ALE:
     """Smoothing + remap of a :class:`~silo_dolfinx.simulation.SiloModel` during discharge; a
     post-step hook of the time loop (:meth:`before_step`, :meth:`after_step`)."""
 
+    CHECKPOINT = ("_steps0", "stats")
+
     def __init__(self, model, config):
         """``config``: the scene's [ale] section (frequency, sweeps, laplacian_weight,
         mid_area_weight, remap_order, predictor, smoothing_objective, tracer_rows/columns)."""

@@ -61,6 +61,8 @@ MAX_BACKOFFS = 60  # rounds of local back-off before the whole mesh stays Lagran
 class Smoother:
     """Smoothed node positions from Lagrangian ones, for a silo mesh."""
 
+    CHECKPOINT = ("x_prev", "backoffs")
+
     def __init__(self, sm, wall, *, laplacian_weight: float = 0.5, mid_area_weight: float = 0.5, sweeps: int = 1,
                  predictor: str = "previous", objective: str = "graded"):
         from dolfinx import la

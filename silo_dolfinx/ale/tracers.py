@@ -30,6 +30,8 @@ FOUND, GHOST, DISCHARGED = 0, 1, 2
 class Tracers:
     """Material points on the owned cells of this rank."""
 
+    CHECKPOINT = ("cell", "xi", "id", "row", "initial", "t_out", "out_pos", "_gone", "count")
+
     def __init__(self, ale, rows: int, per_row: int, points: np.ndarray | None = None):
         model = ale.model
         mesh = ale.mesh

@@ -34,6 +34,8 @@ from silo_dolfinx.output.writer import Results
 class Outputs:
     """The scheduled output of a model into a :class:`Results` folder."""
 
+    CHECKPOINT = ("next_history", "last_sample")
+
     def __init__(self, model, results: Results):
         self.model, self.results = model, results
         out = model.scene.output
@@ -47,7 +49,8 @@ class Outputs:
             self.history.append(PointHistory(model, results))
         self.fields = FieldOutput(model, results, out.field_interval) if out.field_interval > 0 else None
         self.monitor = None  # the discharge's outlet and mesh-quality monitor
-        self._last_t = None
+        self.last_sample = None  # simulated time of the last history sample
+        self.muted = False  # nothing is written while a resumed run replays its set-up
 
     @property
     def max_abs_balance(self) -> float:
@@ -55,6 +58,8 @@ class Outputs:
 
     def maybe(self, stage: str) -> None:
         """Sample what is due at the current time."""
+        if self.muted:
+            return
         t = self.model.solver.t
         if t + 1e-12 >= self.next_history:
             self.sample(stage)
@@ -65,9 +70,9 @@ class Outputs:
 
     def sample(self, stage: str) -> None:
         s = self.model.solver
-        if s.t == self._last_t:
+        if s.t == self.last_sample:
             return  # a stage end that coincides with a periodic sample
-        self._last_t = s.t
+        self.last_sample = s.t
         s.check_finite()  # nothing non-finite is ever written
         for stream in self.history:
             stream.sample(stage)
@@ -98,6 +103,8 @@ class Outputs:
 class EnergyHistory:
     """energy.csv: the ledger summed over ranks, its balance and relative error."""
 
+    CHECKPOINT = ("max_abs_balance",)
+
     def __init__(self, model, results: Results):
         self.solver = model.solver
         self.csv = results.table(schema.ENERGY)
@@ -113,6 +120,8 @@ class EnergyHistory:
 
 class WallHistory:
     """wall_history.csv: pressures and slip at the wall stations (interpolated along s)."""
+
+    CHECKPOINT = ()
 
     def __init__(self, model, results: Results):
         self.model = model
@@ -152,6 +161,20 @@ class PointHistory:
         self.csv = results.table(schema.POINT_HISTORY)
         self._x = np.zeros((model.sm.mesh.geometry.x.shape[0], 2))
 
+    def checkpoint_state(self) -> dict:
+        """The material points, once seeded (:mod:`silo_dolfinx.checkpoint`)."""
+        from silo_dolfinx.checkpoint import capture
+
+        return {"follower": None if self.follower is None else capture(self.follower)}
+
+    def restore_state(self, saved: dict) -> None:
+        """Seeded again (collective) if they had been, then put where they were."""
+        from silo_dolfinx.checkpoint import restore
+
+        if saved["follower"] is not None:
+            self.follower = self.follower or self._seed()
+            restore(self.follower, saved["follower"])
+
     def _cells(self) -> tuple[np.ndarray, np.ndarray]:
         """(owned cell or −1, position) of every point on this rank."""
         from silo_dolfinx.ale.tracers import locate_points
@@ -189,14 +212,13 @@ class PointHistory:
         return out
 
     def sample(self, stage: str) -> None:
-        from silo_dolfinx.invariants import p_q
+        from silo_dolfinx.invariants import p_q, stress_ratio
 
         if self.material and self.follower is None and stage == "discharge":
             self.follower = self._seed()
         v = self.values()
         p, q = p_q(v[:, 2:6])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(p > 1e-9, q / p, np.nan)
+        ratio = stress_ratio(p, q, self.model.p_stress_free)
         t = self.model.solver.t
         self.csv.write(*[[t, k, *v[k, :6], p[k], q[k], ratio[k], *v[k, 6:]] for k in range(len(self.points))])
 
@@ -211,6 +233,8 @@ class PointHistory:
 
 class _Pinned:
     """Material points of a Lagrangian mesh: each keeps its cell and (ξ, η) for good."""
+
+    CHECKPOINT = ("id", "cell", "xi")
 
     def __init__(self, x, cn, n_owned: int, points, comm):
         from silo_dolfinx.ale.tracers import locate_points
@@ -229,12 +253,16 @@ class _Pinned:
 
 class FieldOutput:
     """VTX fields every ``interval`` s of simulated time and at each stage end (the writer
-    itself is built at the first output)."""
+    itself is built at the first output; a resumed run writes new VTX files, numbered)."""
+
+    CHECKPOINT = ("next", "_last", "written")
 
     def __init__(self, model, results: Results, interval: float):
         self.model, self.folder, self.interval = model, results.path("fields"), interval
+        self.part = results.resumed  # 0; a resumed run's VTX files are nodes_resumed<part>.bp, ...
         self.next = 0.0
         self.writer = None
+        self.written = 0  # snapshots so far (their numbering continues in a resumed run)
         self._last = None
 
     def maybe(self, t: float) -> None:
@@ -248,8 +276,9 @@ class FieldOutput:
             self.write(t)
 
     def write(self, t: float) -> None:
-        self.writer = self.writer or FieldWriter(self.model, self.folder)
-        self.writer.write(t)
+        self.writer = self.writer or FieldWriter(self.model, self.folder, self.part)
+        self.writer.write(t, self.written)
+        self.written += 1
         self._last = t
 
     def close(self) -> None:
@@ -263,7 +292,7 @@ class FieldWriter:
 
     CELL_FIELDS = ("stress_rr", "stress_zz", "stress_tt", "stress_rz", "p", "q", "q_over_p", "density")
 
-    def __init__(self, model, folder: Path):
+    def __init__(self, model, folder: Path, part: int = 0):
         from dolfinx import fem, io
 
         self.model = model
@@ -276,14 +305,14 @@ class FieldWriter:
         W = fem.functionspace(mesh, ("DG", 0))
         self.state_fields = [k for k, c in s.material.state_fields.items() if c == 1]
         self.cell = {n: fem.Function(W, name=n) for n in list(self.CELL_FIELDS) + self.state_fields}
-        self.w_nodes = io.VTXWriter(mesh.comm, folder / "nodes.bp", [s.forms.velocity, self.disp], engine="BP4")
-        self.w_cells = io.VTXWriter(mesh.comm, folder / "cells.bp", list(self.cell.values()), engine="BP4")
+        tail = f"_resumed{part}" if part else ""  # VTX cannot append: a resumed run starts new files
+        self.w_nodes = io.VTXWriter(mesh.comm, folder / f"nodes{tail}.bp", [s.forms.velocity, self.disp], engine="BP4")
+        self.w_cells = io.VTXWriter(mesh.comm, folder / f"cells{tail}.bp", list(self.cell.values()), engine="BP4")
         self.folder = folder
-        self.count = 0
 
-    def write(self, t: float) -> None:
+    def write(self, t: float, number: int) -> None:
         from silo_dolfinx import kernels
-        from silo_dolfinx.invariants import p_q
+        from silo_dolfinx.invariants import p_q, stress_ratio
 
         s = self.model.solver
         self.disp.x.array[:] = s.displacement().ravel()
@@ -291,21 +320,24 @@ class FieldWriter:
         sig = s.sig
         p, q = p_q(sig)
         values = {"stress_rr": sig[:, 0], "stress_zz": sig[:, 1], "stress_tt": sig[:, 2], "stress_rz": sig[:, 3],
-                  "p": p, "q": q, "q_over_p": np.where(p > 1e-9, q / np.maximum(p, 1e-9), 0.0), "density": s.rho}
+                  "p": p, "q": q, "density": s.rho}
         values.update({k: s.state[k] for k in self.state_fields})
         avg = np.zeros(cells.size)
         snapshot = {}
         for name, f in self.cell.items():
-            kernels.cell_average(np.ascontiguousarray(values[name]), s.dV, s.nq, avg)
+            if name == "q_over_p":  # of the cell means (NaN in a stress-free cell: invariants.stress_ratio)
+                avg[:] = stress_ratio(snapshot["p"], snapshot["q"], self.model.p_stress_free)
+            else:
+                kernels.cell_average(np.ascontiguousarray(values[name]), s.dV, s.nq, avg)
             f.x.array[:] = 0.0
             f.x.array[cells] = avg
             f.x.scatter_forward()
             snapshot[name] = avg.copy()
         self.w_nodes.write(t)
         self.w_cells.write(t)
-        self._snapshot(t, snapshot)
+        self._snapshot(t, snapshot, number)
 
-    def _snapshot(self, t: float, cell_values: dict) -> None:
+    def _snapshot(self, t: float, cell_values: dict, number: int) -> None:
         """fields/snapshot_NNNN.npz on rank 0: active cells' corners and cell means, owned
         nodes' positions and velocities (for `silo report`: renders, flow-channel boundary)."""
         s = self.model.solver
@@ -324,8 +356,7 @@ class FieldWriter:
             data[f"cell_{name}"] = np.concatenate([p[1][name] for p in parts])
         if tracers is not None:
             data.update({f"tracer_{k}": v for k, v in tracers.items()})
-        np.savez_compressed(self.folder / f"snapshot_{self.count:04d}.npz", **data)
-        self.count += 1
+        np.savez_compressed(self.folder / f"snapshot_{number:04d}.npz", **data)
 
     def close(self) -> None:
         self.w_nodes.close()
@@ -337,6 +368,8 @@ class DischargeMonitor:
     (columns in :mod:`silo_dolfinx.output.schema`); tracers.csv at the end if ALE has tracers."""
 
     RATE_WINDOW = 0.05  # s: the mass flow rate is the discharged mass over this trailing window
+    CHECKPOINT = ("t0", "mass0", "_hist", "worst_balance", "min_quality", "aspect0", "axis_top_height", "flow",
+                  "_z_top0")
 
     def __init__(self, model, results: Results, ale=None):
         from dolfinx import la

@@ -10,6 +10,7 @@
       mesh_quality.csv        t, top_drop, min_scaled_jacobian, max_aspect_ratio (discharge)
       tracers.csv             id, row, r0, z0, r, z, discharged_at (discharge with tracers)
       fields/nodes.bp, fields/cells.bp   VTX (ParaView): velocity, displacement; stress, p, q, q/p, ...
+      checkpoint/             while running: the state to resume from (silo_dolfinx.checkpoint)
       mesh.png, *.png         pictures
 
 Rank 0 writes the CSV and JSON files; every row is flushed when written and summary.json is
@@ -31,15 +32,17 @@ import numpy as np
 
 
 class CsvSeries:
-    """A CSV file written row by row (rank 0 only), flushed after each row."""
+    """A CSV file written row by row (rank 0 only), flushed after each row; ``append``: continue
+    an existing file (a resumed run, the file already cut back to its checkpoint length)."""
 
-    def __init__(self, path: Path, columns: list[str], active: bool):
+    def __init__(self, path: Path, columns: list[str], active: bool, append: bool = False):
         self.path, self.columns, self.active = path, columns, active
         self._f = None
         if active:
-            self._f = open(path, "w", newline="")  # noqa: SIM115 - kept open for incremental rows
+            self._f = open(path, "a" if append else "w", newline="")  # noqa: SIM115 - kept open for incremental rows
             self._w = csv.writer(self._f)
-            self._w.writerow(columns)
+            if not append:
+                self._w.writerow(columns)
             self._f.flush()
 
     def write(self, *rows) -> None:
@@ -64,17 +67,29 @@ def _fmt(x):
 
 
 class Results:
-    """Writer of one results folder (collective: create on every rank)."""
+    """Writer of one results folder (collective: create on every rank).
 
-    def __init__(self, folder: str | Path, scene, comm):
+    ``resume``: the checkpoint a killed run continues from (:mod:`silo_dolfinx.checkpoint`):
+    the summary so far is kept (status back to ``running``, the resumption listed under
+    ``resumed``), every CSV the checkpoint recorded is cut back to its length then and appended
+    to, and the wall-clock counts on from the checkpoint's."""
+
+    def __init__(self, folder: str | Path, scene, comm, resume: dict | None = None):
         self.folder = Path(folder)
         self.comm = comm
         self.root = comm.rank == 0
+        self.scene = scene
+        self._series: dict[str, CsvSeries] = {}
+        self._last_beat = time.time()
+        self._append: set[str] = set()
+        self.resumed = 0  # how many times this run was resumed
+        if resume is not None:
+            self._resume(resume)
+            return
         if self.root:
             self.folder.mkdir(parents=True, exist_ok=True)
             (self.folder / "scene.toml").write_text(scene.to_toml())
         comm.barrier()
-        self.scene = scene
         self.started = time.time()
         self.summary: dict[str, Any] = {
             "status": "running",
@@ -86,16 +101,34 @@ class Results:
             "stages": [],
             "warnings": list(scene.warnings),
         }
-        self._series: dict[str, CsvSeries] = {}
-        self._last_beat = time.time()
         self.write_summary()
+
+    def _resume(self, ck: dict) -> None:
+        self.summary = json.loads((self.folder / "summary.json").read_text())
+        self.summary.pop("error", None)
+        resumed = self.summary.setdefault("resumed", [])
+        resumed.append({"from_t": ck["t"], "from_steps": ck["steps"], "at": time.strftime("%Y-%m-%dT%H:%M:%S")})
+        self.resumed = len(resumed)
+        self.summary.update(status="running", t_reached=ck["t"], steps=ck["steps"])
+        self.started = time.time() - ck["wall_clock_s"]
+        self._append = set(ck["csv_sizes"])
+        if self.root:
+            for name, size in ck["csv_sizes"].items():
+                os.truncate(self.folder / name, size)  # rows after the checkpoint are written again
+        self.comm.barrier()
+        self.write_summary()
+
+    def csv_sizes(self) -> dict[str, int]:
+        """Byte length of every open CSV series (rank 0; all flushed): what a checkpoint records."""
+        return {name: os.path.getsize(s.path) for name, s in self._series.items() if s._f is not None} \
+            if self.root else {}
 
     def path(self, name: str) -> Path:
         return self.folder / name
 
     def series(self, name: str, columns: list[str]) -> CsvSeries:
         if name not in self._series:
-            self._series[name] = CsvSeries(self.folder / name, columns, self.root)
+            self._series[name] = CsvSeries(self.folder / name, columns, self.root, append=name in self._append)
         return self._series[name]
 
     def table(self, schema, **parts) -> CsvSeries:

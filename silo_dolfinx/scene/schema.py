@@ -407,6 +407,9 @@ OUTPUT = Section(
           "through ALE remaps like tracers; a point that leaves through the outlet has no values after)."),
         F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX, and the snapshots "
           "`silo report` draws); 0 = no field output at all (the field stream is not built).", **DURATION),
+        F("checkpoint_interval", 300.0, "s", "Wall-clock seconds between checkpoints (written at a history sample "
+          "into `checkpoint/` of the results folder; a killed run continues with `silo run --resume FOLDER`, on "
+          "the same number of ranks). 0 = no checkpoints.", lo=0.0, hi=1.0e6),
     ),
 )
 

@@ -15,6 +15,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from silo_dolfinx import checkpoint
+from silo_dolfinx.checkpoint import Checkpoints
 from silo_dolfinx.geometry.mesher import mesh_scene
 from silo_dolfinx.output import Progress, Results
 from silo_dolfinx.output.streams import Outputs
@@ -30,11 +32,13 @@ def build_model(scene, comm=None, sm=None) -> SiloModel:
     return SiloModel(scene, sm if sm is not None else mesh_scene(scene, comm))
 
 
-def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> dict:
-    """Run a scene into the results folder ``out``; returns the summary (also on disk)."""
+def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0, resume: bool = False) -> dict:
+    """Run a scene into the results folder ``out``; returns the summary (also on disk).
+    ``resume``: continue the run in ``out`` from its last checkpoint (``scene`` is then the
+    folder's scene.toml, and the ranks as many as wrote it; :mod:`silo_dolfinx.checkpoint`)."""
     comm = MPI.COMM_WORLD if comm is None else comm
-    results = Results(out, scene, comm)
-    wall0 = time.time()
+    saved = checkpoint.load(out, comm) if resume else None  # refused before anything is touched
+    results = Results(out, scene, comm, resume=saved)
     model = None
     guard = comm.Dup()  # for the error check below: independent of any collective left hanging on comm
     try:
@@ -46,8 +50,10 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0) -> di
                        time_step_scale=s.numerics.time_step_scale, effects=list(model.effects),
                        ale="on in the discharge" if "ale" in model.effects else "off (Lagrangian)")
         model.outputs = Outputs(model, results)
-        stages = run_stages(model, Progress(comm, total_time(scene), every=progress_every))
-        _finish(model, results, stages, wall0)
+        checkpoints = Checkpoints(model, results, scene.output.checkpoint_interval, saved)
+        stages = run_stages(model, Progress(comm, total_time(scene), every=progress_every), checkpoints)
+        _finish(model, results, stages)
+        checkpoints.finish()
     except InstabilityError as err:
         results.finish("failed", str(err))
         _all_ranks_or_abort(guard, err)
@@ -94,7 +100,7 @@ def _mesh_record(scene, sm, results: Results) -> None:
     results.update(cells=q["cells"], mesh_quality=q)
 
 
-def _finish(model: SiloModel, results: Results, stages: list[dict], wall0: float) -> None:
+def _finish(model: SiloModel, results: Results, stages: list[dict]) -> None:
     s = model.solver
     e = s.global_energy()
     results.summary["warnings"] += _dilation_warnings(model.scene, stages) + [st["ended_because"] for st in stages
@@ -104,7 +110,7 @@ def _finish(model: SiloModel, results: Results, stages: list[dict], wall0: float
                                                       "gravity", "external", "contact")},
                    energy_balance_error=e.relative_error(s.energy_scale),
                    energy_balance_error_max=model.outputs.max_abs_balance / max(s.energy_scale, 1e-300),
-                   steps_per_second=s.steps / max(time.time() - wall0, 1e-9))
+                   steps_per_second=s.steps / max(time.time() - results.started, 1e-9))
     results.finish("completed")
 
 

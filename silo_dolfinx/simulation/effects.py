@@ -35,6 +35,7 @@ of the same kind; they live in :mod:`silo_dolfinx.output.streams`.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from mpi4py import MPI
@@ -52,6 +53,18 @@ def smooth_step(x: float) -> float:
     if x >= 1.0:
         return 1.0
     return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+
+
+@dataclass(frozen=True)
+class SmoothRamp:
+    """Load amplitude 0 -> 1 by :func:`smooth_step` from ``t0`` over ``duration`` (1 throughout if
+    the duration is 0). Data, not a closure: the solver's loads are part of a checkpoint."""
+
+    t0: float
+    duration: float
+
+    def __call__(self, t: float) -> float:
+        return smooth_step((t - self.t0) / self.duration) if self.duration > 0.0 else 1.0
 
 
 def ramp_velocity(u0: float, ramp_time: float):

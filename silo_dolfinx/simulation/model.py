@@ -12,10 +12,11 @@ from __future__ import annotations
 import numpy as np
 
 from silo_dolfinx.geometry.mesher import FACET_TAGS, SiloMesh
+from silo_dolfinx.invariants import stress_free_pressure
 from silo_dolfinx.materials import make_material
 from silo_dolfinx.simulation import effects as fx
 from silo_dolfinx.simulation import stages
-from silo_dolfinx.simulation.effects import smooth_step
+from silo_dolfinx.simulation.effects import SmoothRamp
 from silo_dolfinx.solver import ExplicitSolver, Numerics, VelocityConstraint
 
 
@@ -39,6 +40,8 @@ class SiloModel:
         self.outputs = None  # output streams (simulation.run sets them)
         self.effects = fx.compose(self)
         self.stages = stages.compose(scene)
+        # below it a cell is stress-free and its q/p undefined (output)
+        self.p_stress_free = stress_free_pressure(scene.material.density, scene.loads.gravity, self.outline.fill_height)
 
     # ------------------------------------------------------------------ effects
     @property
@@ -94,7 +97,7 @@ class SiloModel:
         s = self.solver
         s.set_active_cells(cells)
         s.loads.clear()
-        amp = (lambda t: smooth_step((t - t0) / ramp_time)) if ramp_time > 0 else (lambda t: 1.0)
+        amp = SmoothRamp(t0, ramp_time)
         self.effects["gravity"].load(cells, new_cells, amp)
         if last and "surcharge" in self.effects:
             self.effects["surcharge"].load(amp)

@@ -26,6 +26,7 @@ import numpy as np
 from mpi4py import MPI
 
 from silo_dolfinx._mpi import reduce_scalar
+from silo_dolfinx.checkpoint import Checkpoints
 from silo_dolfinx.simulation.effects import smooth_step
 
 
@@ -36,6 +37,7 @@ class Stage:
     name: str
     duration: float
     damped: bool = False
+    CHECKPOINT = ()  # what a checkpoint keeps of a stage in progress (silo_dolfinx.checkpoint)
 
     def segments(self, model):
         """(end time, progress label) of each stretch of time stepping; set-up in between."""
@@ -93,9 +95,12 @@ class LayerFill(Stage):
 class Store(Stage):
     """Closed outlet, full gravity, until at rest or the duration is over."""
 
+    CHECKPOINT = ("t_end",)
+
     def __init__(self, store):
         super().__init__("store", store.duration, damped=True)
         self.tol = store.kinetic_energy_tol
+        self.t_end = store.duration  # set when the stage begins
 
     def segments(self, model):
         self.t_end = model.solver.t + self.duration
@@ -117,6 +122,8 @@ class Store(Stage):
 class Discharge(Stage):
     """The outlet opens (the effects begin: gate removed, drive, ALE) and the silo drains, for
     its duration or until the mesh can no longer follow the draining fill."""
+
+    CHECKPOINT = ("ended_early",)
 
     def __init__(self, discharge):
         super().__init__("discharge", discharge.duration)
@@ -161,25 +168,32 @@ def total_time(scene) -> float:
 
 
 # ---------------------------------------------------------------------------- the loop
-def run_stages(model, progress) -> list[dict]:
-    """Every stage in turn: its effects begin, it steps, its end is recorded."""
-    records = []
-    for stage in model.stages:
+def run_stages(model, progress, checkpoints: Checkpoints | None = None) -> list[dict]:
+    """Every stage in turn: its effects begin, it steps, its end is recorded. With
+    ``checkpoints`` resuming, the stages and segments before the checkpoint only replay their
+    set-up (:mod:`silo_dolfinx.checkpoint`)."""
+    ck = checkpoints or Checkpoints(model, model.outputs.results, 0.0)
+    records = ck.records  # a resumed run's include the stages done before its checkpoint
+    for i, stage in enumerate(model.stages):
         s = model.solver
-        t0, steps0, wall0 = s.t, s.steps, time.time()
+        t0, steps0, wall0 = ck.stage_start(i)
         s.damping = model.damping_alpha if stage.damped else 0.0  # the stage's declaration
         for effect in model.effects.values():
             effect.begin(stage)
-        for t_end, label in stage.segments(model):
-            advance(model, stage, t_end, label, progress)
+        for j, (t_end, label) in enumerate(stage.segments(model)):
+            if ck.steps(i, j):
+                advance(model, stage, t_end, label, progress, ck)
+        if ck.done_before(i):
+            continue
         model.outputs.stage_end(stage.name)
         records.append(_stage_record(stage, model, t0, steps0, wall0) | stage.record(model))
     return records
 
 
-def advance(model, stage: Stage, t_end: float, label: str, progress) -> None:
+def advance(model, stage: Stage, t_end: float, label: str, progress, checkpoints: Checkpoints | None = None) -> None:
     """The time loop of thesis ch. 3: a Lagrangian step (predict → contact → update →
-    internal force → Δt), then the post-step hooks (every N steps: smooth + remap), output."""
+    internal force → Δt), then the post-step hooks (every N steps: smooth + remap), output,
+    and now and then a checkpoint."""
     s = model.solver
     while s.t < t_end * (1 - 1e-12) - 1e-15:
         s.dt = min(s.dt, t_end - s.t)  # land on the stage's end
@@ -192,6 +206,8 @@ def advance(model, stage: Stage, t_end: float, label: str, progress) -> None:
         progress(label, s.t, s.steps, s.dt)
         if stage.stop(model):
             break
+        if checkpoints is not None:
+            checkpoints.maybe()
 
 
 def _stage_record(stage: Stage, model, t0: float, steps0: int, wall0: float) -> dict:

@@ -172,7 +172,7 @@ class Checkpoints:
             self._load(self._stage_file(i))
             self.model.outputs.muted = True
         elif self.interval > 0.0:
-            self._dump(self._stage_file(i))
+            self._dump_or_stop(self._stage_file(i))
         if i == self.resume_stage:
             r = self.resume
             self.clock = (r["stage_t0"], r["stage_steps0"], time.time() - r["stage_wall_s"])
@@ -208,9 +208,9 @@ class Checkpoints:
         """Every rank's state into the free slot, then checkpoint.json naming it (collective)."""
         s, results = self.model.solver, self.results
         slot = 1 - self.slot
-        self._dump(self.folder / f"state{slot}.rank{self.comm.rank}.pkl")
-        mesh = self.comm.gather(signature(self.model), root=0)
-        self.comm.barrier()  # every rank's file is complete before the JSON names it
+        if not self._dump_or_stop(self.folder / f"state{slot}.rank{self.comm.rank}.pkl"):
+            return
+        mesh = self.comm.gather(signature(self.model), root=0)  # (the collective also orders the JSON last)
         self.slot = slot
         self.written += 1
         now = time.time()
@@ -233,6 +233,25 @@ class Checkpoints:
     # ------------------------------------------------------------------ files
     def _stage_file(self, i: int) -> Path:
         return self.folder / f"stage{i}.rank{self.comm.rank}.pkl"
+
+    def _dump_or_stop(self, path: Path) -> bool:
+        """Write this rank's state to ``path``; if any rank cannot (disk full, a load amplitude
+        that is a closure), checkpoints stop for the rest of the run with a warning in
+        summary.json - the run itself goes on (collective)."""
+        try:
+            self._dump(path)
+            error = ""
+        except (OSError, pickle.PicklingError, AttributeError, TypeError) as err:
+            error = f"rank {self.comm.rank}: {type(err).__name__}: {err}"
+        errors = [e for e in self.comm.allgather(error) if e]
+        if not errors:
+            return True
+        self.interval = 0.0
+        self.results.summary["warnings"].append(
+            f"[output] checkpoints stopped at t = {self.model.solver.t:.6g} s, the run goes on without them: could not "
+            f"write {path.name} ({errors[0]}). The last complete checkpoint, if any, can still be resumed.")
+        self.results.write_summary()
+        return False
 
     def _dump(self, path: Path) -> None:
         state = {name: capture(obj) for name, obj in parts(self.model).items()}

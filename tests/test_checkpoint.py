@@ -176,3 +176,15 @@ def test_restore_writes_arrays_in_place_and_assigns_the_rest():
     assert h.level.sig is view and np.all(base == 7.0)  # through the view into its base
     assert h.level.state["eqps"] is eqps and np.all(eqps == 1.0)
     assert h.n == 5 and h.grown.size == 4
+
+
+def test_a_checkpoint_that_cannot_be_written_stops_checkpoints_not_the_run(shared_tmp, monkeypatch, comm):
+    """A load amplitude that is a closure cannot be pickled (nor can a full disk take a file):
+    the run goes on without checkpoints and says so in summary.json."""
+    from silo_dolfinx.simulation import model
+
+    monkeypatch.setattr(model, "SmoothRamp", lambda t0, duration: (lambda t: 1.0))
+    summary = run(_scene("discharge.duration=0.05"), shared_tmp / "out", comm, progress_every=1e9)
+    assert summary["status"] == "completed"
+    assert any("checkpoints stopped at t =" in w and "could not write state" in w for w in summary["warnings"])
+    assert "checkpoint" not in summary

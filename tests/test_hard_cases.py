@@ -106,6 +106,29 @@ def test_one_and_two_ranks_agree_over_the_first_thousand_steps(shared_tmp, comm)
         assert np.max(np.abs(a[col] - b[col])) <= 1e-8 * np.abs(b[col]).max(), col
 
 
+def test_a_long_discharge_stays_within_the_bounds_and_steady(shared_tmp, comm):
+    """The ch. 3 hopper (H 2.64 m, outlet radius 0.1 m) coarse (unstructured, h 0.1 m: 194 cells,
+    the outlet two cells wide) discharged freely for 30 s on the extension cone: every hard-case
+    check holds over 37,000 steps and ~1,700 remaps, and the mass flow stays steady - a hopper's
+    rate hardly depends on the head (Beverloo), and the critical state keeps the flowing solid
+    from dilating without end. Measured serially: 43 % out, energy 0.05 %, mass 1e-7, worst cell
+    0.60; the rate 63.7 kg/s over 3.2-13.2 s, 59.8 over the last 10 s (0.94; bar 0.85: a
+    drop of 15 % would be a solid dilating without end). 18 s serially, 24 s on 2 ranks. (On
+    the compression cone this mesh arches over its two-cell outlet; there the remap used to
+    create mass at the outlet - 0.74 % in 30 s - tests/test_ale.py.)"""
+    from silo_dolfinx.analysis import windowed_mass_flow
+
+    out = shared_tmp / "long"
+    sets = ['geometry.mesh="unstructured"', "geometry.element_size=0.1", 'discharge.mode="free"',
+            "discharge.duration=30", "output.stations=[0.3, 1.0, 2.0]"]
+    h = checked_run(out, comm, "hopper_ch3_ale", sets)
+    assert h["simulated_time"] >= 30.0 and h["discharged_mass"] > 0.3 * h["mass_at_opening"]
+    o = read_csv(out / "outlet.csv")
+    early = windowed_mass_flow(o["t"], o["discharged_mass"], 10.0, t_start=3.2)[1][0]
+    late = windowed_mass_flow(o["t"], o["discharged_mass"], 10.0, t_start=20.2)[1][0]
+    assert late >= 0.85 * early, (early, late)
+
+
 EMPTYING = ["geometry.height=0.45", "geometry.top_radius=0.25", "geometry.outlet_radius=0.08", "geometry.element_size=0.05",
             'geometry.mesh="structured"', 'discharge.mode="free"', "discharge.duration=10", "output.stations=[0.1, 0.3]",
             'material.cone="compression"']
@@ -195,7 +218,7 @@ def test_no_checkerboard_of_q_over_p_above_the_outlet(shared_tmp, comm):
     plastic zone, every defined cell on the cone. Asserted on the coarse, short version of the
     issue's run (0.05 m, 731 cells, 1.5 s of free discharge; 0.03 m / 6 s measured the same in
     docs/reliability.md): the outlet zone's cell-to-cell oscillation is within the issue's bar
-    (≤ 2× the rest of the flowing region; measured 0.014×), and each of its defined cells has
+    (≤ 2× the rest of the flowing region; measured 0.007×), and each of its defined cells has
     q/p = tan β + c/p within 2 % (the cone with its cohesion; without it the zone is not at yield)."""
     from silo_dolfinx import analysis
     from silo_dolfinx.materials import make_material

@@ -36,8 +36,9 @@ circulation is the least-squares fit to the swept volumes of the dual segments. 
 * momentum Σ M v is conserved to round-off (minus what leaves through an outflow edge);
 * each new velocity is a convex combination of old ones (first order, donor corner).
 
-Outflow edges (an Eulerian outlet) let material out, never in; other boundary edges carry
-nothing (a wall or free-surface node that moves along its boundary changes its cell's
+Outflow edges (an Eulerian outlet) let material out, never in, with the donor cell's mass flux
+(a high-order one, extrapolating an emptied outlet cell's gradient, could point inwards, and
+nothing outside would bound it); other boundary edges carry nothing (a wall or free-surface node that moves along its boundary changes its cell's
 volume, and the cell keeps its mass).
 
 The stages, each in its module and chosen once at set-up (order 1: low order only):

@@ -478,6 +478,19 @@ def cell_oscillation(corners, values, decimals: int = 9) -> np.ndarray:
     return np.where(ok, np.where(k > 0, v - s / np.maximum(k, 1), 0.0), np.nan)
 
 
+def cell_speed(snapshot: dict) -> np.ndarray:
+    """Each cell's speed in a field snapshot: the mean |v| of its four corner nodes (corners and
+    nodes matched by position)."""
+    c = np.asarray(snapshot["corners"], float)
+    n_nodes = len(snapshot["node_xy"])
+    keys = np.round(np.concatenate([np.asarray(snapshot["node_xy"], float), c.reshape(-1, 2)]), 9)
+    _, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    speed = np.zeros(inv.max() + 1)
+    speed[inv[:n_nodes]] = np.linalg.norm(np.asarray(snapshot["node_velocity"], float), axis=1)
+    return speed[inv[n_nodes:]].reshape(-1, 4).mean(axis=1)
+
+
 def outlet_zone_oscillation(snapshot: dict, outlet_radius: float, zone: float = 0.15, flowing: float = 0.05,
                             field: str = "cell_q_over_p") -> dict:
     """The cell-to-cell oscillation of a snapshot's cell field (RMS of :func:`cell_oscillation`)
@@ -487,14 +500,8 @@ def outlet_zone_oscillation(snapshot: dict, outlet_radius: float, zone: float = 
     the cells where the field is defined), their ratio, the cell counts and the outlet zone's
     undefined (stress-free) cells: a spurious mode at the outlet shows as a ratio well above 1."""
     c = np.asarray(snapshot["corners"], float)
-    n_nodes = len(snapshot["node_xy"])
-    keys = np.round(np.concatenate([np.asarray(snapshot["node_xy"], float), c.reshape(-1, 2)]), 9)
-    _, inv = np.unique(keys, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    speed = np.zeros(inv.max() + 1)
-    speed[inv[:n_nodes]] = np.linalg.norm(np.asarray(snapshot["node_velocity"], float), axis=1)
-    cell_speed = speed[inv[n_nodes:]].reshape(-1, 4).mean(axis=1)
-    moving = cell_speed >= flowing * cell_speed.max()
+    speed = cell_speed(snapshot)
+    moving = speed >= flowing * speed.max()
     centre = c.mean(axis=1)
     near = np.hypot(np.maximum(centre[:, 0] - outlet_radius, 0.0), centre[:, 1]) < zone
     osc = cell_oscillation(c, snapshot[field])

@@ -4,7 +4,7 @@
     silo mesh SCENE -o meshes/NAME.msh [--show]        write the gmsh mesh (and a PNG of it)
     silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
     silo run --resume results/NAME                     continue a killed run from its last checkpoint
-    silo report results/NAME                           figures + report.md from a results folder
+    silo report results/NAME [--movie]                 figures + report.md from a results folder
     silo shear --out results/shear [--cone thesis]     the ch. 8 simple-shear study (Table 8-1)
     silo schema [--results]                            print the scene (or results-file) reference
 
@@ -52,6 +52,8 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument("--times", type=float, nargs="+", metavar="T",
                     help="simulated times (s) of the stress-field figure (default: end of filling, opening, "
                          "2 s into the discharge, its end)")
+    sp.add_argument("--movie", action="store_true",
+                    help="also discharge.gif: speed, tracers and q/p through the discharge, a frame per field snapshot")
     sp = sub.add_parser("shear", help="thesis ch. 8 simple shear, Table 8-1, coaxial vs non-coaxial")
     sp.add_argument("--out", required=True, help="folder for CSV and PNG files")
     sp.add_argument("--cone", "--matching", dest="cone", default="plane_strain",
@@ -182,7 +184,7 @@ def _report(args) -> int:
     from silo_dolfinx.report import make_report
 
     try:
-        path = make_report(args.folder, args.times)
+        path = make_report(args.folder, args.times, args.movie)
     except FileNotFoundError as e:
         _error(f"error: {e}")
         return 2

@@ -16,7 +16,9 @@ Every figure uses the thesis' axes and shows the matching theory beside the simu
 * ``mesh_quality.png`` — aspect ratio against top-surface drop (Fig. 3-18), scaled Jacobian;
 * ``flow_pattern.png`` — tracer rows at four times (ALE discharges);
 * ``energy.png`` — energy terms and the balance error;
-* ``field_q_over_p.png``, ``field_velocity.png`` — renders of the last field snapshot;
+* ``field_q_over_p.png``, ``field_velocity.png`` — the last field snapshot over the whole silo
+  (section and mirror image, metres, the time in the title; :mod:`silo_dolfinx.render`);
+* ``discharge.gif`` — with ``--movie``: speed, tracers and q/p through the discharge;
 
 and ``report.md`` tying them together with a table of the key numbers. A partial results
 folder (a run still going, or one that stopped) gives whatever its files allow; what is
@@ -37,9 +39,10 @@ from silo_dolfinx.output.reader import read_csv, read_summary
 
 
 class Report:
-    def __init__(self, folder: str | Path, times: list[float] | None = None):
+    def __init__(self, folder: str | Path, times: list[float] | None = None, movie: bool = False):
         self.folder = Path(folder)
         self.times = times  # of the stress-field figures (None: the stages' ends, 2 s into the discharge)
+        self.with_movie = movie  # discharge.gif (silo report --movie)
         if not self.folder.is_dir():
             raise FileNotFoundError(f"{self.folder}: no such results folder")
         from silo_dolfinx.scene import load_scene
@@ -807,42 +810,37 @@ class Report:
         return stress_free_pressure(sc.material.density, sc.loads.gravity, sc.geometry.fill_height) if sc else 0.0
 
     def renders(self) -> None:
+        """The last snapshot's q/p and speed over the whole silo (:mod:`silo_dolfinx.render`)."""
+        from silo_dolfinx import render
+
         snap = self._snapshot()
         if snap is None:
             self.missing.append("field renders (no field snapshot)")
             return
-        import pyvista as pv
-        import vtk
-
-        pv.OFF_SCREEN = True
-        vtk.vtkLogger.SetStderrVerbosity(vtk.vtkLogger.VERBOSITY_OFF)  # no "bad X server" noise headless
-        corners = snap["corners"]
-        n = corners.shape[0]
-        pts = np.column_stack([corners.reshape(-1, 2), np.zeros(4 * n)])
-        cells = np.column_stack([np.full(n, 4), np.arange(4 * n).reshape(n, 4)]).ravel()
+        t = float(snap["t"])
         if "cell_q_over_p" in snap:
-            grid = pv.UnstructuredGrid(cells, np.full(n, pv.CellType.QUAD, np.uint8), pts)
-            grid.cell_data["q/p"] = snap["cell_q_over_p"]
-            self._render(grid, "q/p", "field_q_over_p.png", f"Stress ratio q/p (eq. 4-11) at t = {float(snap['t']):.3g} s "
-                         "(grey: stress-free cells, separated at the cone's apex, where q/p is undefined).")
-        speed = np.linalg.norm(snap["node_velocity"], axis=1)
-        cloud = pv.PolyData(np.column_stack([snap["node_xy"], np.zeros(len(speed))]))
-        cloud.point_data["|v| (m/s)"] = speed
-        self._render(cloud, "|v| (m/s)", "field_velocity.png", f"Speed at the nodes, t = {float(snap['t']):.3g} s.",
-                     points=True)
+            render.picture(snap, "q_over_p", self.folder / "field_q_over_p.png")
+            self.figures.append(("field_q_over_p.png", f"Stress ratio q/p (eq. 4-11) at t = {t:.3g} s, the section and "
+                                 "its mirror image (grey: stress-free cells, separated at the cone's apex, where q/p is "
+                                 "undefined)."))
+        render.picture(snap, "speed", self.folder / "field_velocity.png")
+        self.figures.append(("field_velocity.png", f"Speed at t = {t:.3g} s (cell means of the corner nodes' |v|)"
+                             + (", tracers in white" if "tracer_xy" in snap else "") + "."))
 
-    def _render(self, mesh, scalars, name, caption, points=False):
-        import pyvista as pv
+    def movie(self) -> None:
+        """discharge.gif: speed and q/p through the discharge, one frame per field snapshot."""
+        from silo_dolfinx import render
 
-        p = pv.Plotter(off_screen=True, window_size=(700, 900))
-        if points:
-            p.add_mesh(mesh, scalars=scalars, point_size=6, render_points_as_spheres=True, cmap="viridis")
-        else:
-            p.add_mesh(mesh, scalars=scalars, cmap="viridis", show_edges=False, nan_color="lightgrey")
-        p.view_xy()
-        p.screenshot(str(self.folder / name))
-        p.close()
-        self.figures.append((name, caption))
+        t0 = self._stage_times().get("discharge", (None, None))[0]
+        snaps = sorted((self.folder / "fields").glob("snapshot_*.npz"))
+        if t0 is not None:
+            snaps = [f for f in snaps if float(np.load(f)["t"]) >= t0 - 1e-9]
+        if len(snaps) < 2:
+            self.missing.append("discharge movie (fewer than two field snapshots in the discharge)")
+            return
+        n = render.movie(snaps, self.folder / "discharge.gif")
+        self.figures.append(("discharge.gif", f"The discharge: speed (tracers in white) and q/p, {n} frames, one per "
+                             "field snapshot (output.field_interval)."))
 
     # ------------------------------------------------------------------ text
     def _title(self) -> str:
@@ -864,7 +862,8 @@ class Report:
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,
                      self.wall_dynamics, self.rarefaction, self.outlet, self.flow_channel,
-                     self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields):
+                     self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields,
+                     *([self.movie] if self.with_movie else [])):
             try:
                 part()
             except Exception as e:  # a broken part must not lose the others
@@ -902,10 +901,11 @@ def _spread(points: np.ndarray, spacing: float) -> np.ndarray:
     return np.sort(first)
 
 
-def make_report(folder: str | Path, times: list[float] | None = None) -> Path:
+def make_report(folder: str | Path, times: list[float] | None = None, movie: bool = False) -> Path:
     """Write every figure the folder's files allow and report.md (the stress fields at
-    ``times``, default: see :meth:`Report.stress_fields`); returns its path."""
-    return Report(folder, times).write()
+    ``times``, default: see :meth:`Report.stress_fields`; with ``movie``, discharge.gif);
+    returns its path."""
+    return Report(folder, times, movie).write()
 
 
 if __name__ == "__main__":  # pragma: no cover

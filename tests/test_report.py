@@ -123,6 +123,36 @@ def test_silo_report_command(synthetic, capsys):
     assert main(["report", str(synthetic / "nope")]) == 2
 
 
+def test_renders_show_the_whole_silo_in_metres_and_the_movie_has_a_frame_per_snapshot(synthetic):
+    """The field pictures draw the section and its mirror image (a whole silo, symmetric about
+    the axis, axes in metres, the time in the title); the speed is a cell field (the mean of the
+    corners' |v|: 1 m/s in the mass-flow zone above z = 1); `silo report --movie` animates the
+    discharge's snapshots, one frame each."""
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from silo_dolfinx import render
+
+    snap = dict(np.load(synthetic / "fields" / "snapshot_0000.npz"))
+    fig, ax = plt.subplots()
+    poly = render.draw(ax, snap, "q_over_p")
+    n = len(snap["corners"])
+    assert len(poly.get_paths()) == 2 * n  # the section and its mirror
+    lo, hi = ax.get_xlim()
+    assert lo == pytest.approx(-hi) and hi > 1.0  # the top radius is 1.1 m
+    assert ax.get_title() == "t = 30 s" and ax.get_xlabel() == "r (m)" and ax.get_ylabel() == "z (m)"
+    plt.close(fig)
+    speed = render.field_values(snap, "speed")
+    above = snap["corners"][:, :, 1].min(axis=1) >= 1.0 - 1e-9
+    assert np.allclose(speed[above], 1.0)
+    second = dict(snap, t=40.0, node_velocity=0.5 * snap["node_velocity"])
+    np.savez(synthetic / "fields" / "snapshot_0001.npz", **second)
+    assert main(["report", str(synthetic), "--movie"]) == 0
+    with Image.open(synthetic / "discharge.gif") as gif:
+        assert gif.n_frames == 2
+    assert "(discharge.gif)" in (synthetic / "report.md").read_text()
+
+
 def _theory_labels(tmp_path, scene_file, stage, overrides=()):
     from silo_dolfinx.report import Report
 

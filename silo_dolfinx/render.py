@@ -36,8 +36,13 @@ def colour_limits(snaps: list[dict], field: str) -> tuple[float, float]:
     scale goes SPEED_DECADES decades below it (log); q/p from 0 to 1.05 × its 99th percentile
     (the cone's slope, where the solid yields; a cell just above the stress-free pressure can
     read more - c/p - and would otherwise set the scale)."""
-    top_of = (lambda v: np.nanmax(v)) if field == "speed" else (lambda v: np.nanpercentile(v, 99))  # noqa: E731
-    tops = [top_of(v) for v in (field_values(s, field) for s in snaps) if np.isfinite(v).any()]
+    return _limits([field_values(s, field) for s in snaps], field)
+
+
+def _limits(values: list[np.ndarray], field: str) -> tuple[float, float]:
+    """:func:`colour_limits` of per-cell values already computed."""
+    top_of = np.nanmax if field == "speed" else (lambda v: np.nanpercentile(v, 99))  # noqa: E731
+    tops = [top_of(v) for v in values if np.isfinite(v).any()]
     top = max(max(tops, default=1.0), 1e-12)
     return (top * 10.0**-SPEED_DECADES, top) if field == "speed" else (0.0, 1.05 * top)
 
@@ -52,7 +57,7 @@ def draw(ax, snap: dict, field: str, clim: tuple[float, float] | None = None):
 
     c = np.asarray(snap["corners"], float)
     v = field_values(snap, field)
-    lo, hi = clim if clim is not None else colour_limits([snap], field)
+    lo, hi = clim if clim is not None else _limits([v], field)  # (the values computed once)
     norm = LogNorm(lo, hi, clip=True) if field == "speed" else Normalize(lo, hi)
     mirror = c * np.array([-1.0, 1.0])
     cmap = plt.get_cmap(FIELDS[field][1]).with_extremes(bad="lightgrey")

@@ -52,6 +52,10 @@ class CsvSeries:
             self._w.writerow([_fmt(x) for x in row])
         self._f.flush()
 
+    @property
+    def is_open(self) -> bool:
+        return self._f is not None
+
     def close(self) -> None:
         if self._f is not None:
             self._f.close()
@@ -120,8 +124,7 @@ class Results:
 
     def csv_sizes(self) -> dict[str, int]:
         """Byte length of every open CSV series (rank 0; all flushed): what a checkpoint records."""
-        return {name: os.path.getsize(s.path) for name, s in self._series.items() if s._f is not None} \
-            if self.root else {}
+        return {name: os.path.getsize(s.path) for name, s in self._series.items() if s.is_open} if self.root else {}
 
     def path(self, name: str) -> Path:
         return self.folder / name

@@ -3,6 +3,7 @@
     python benchmarks/accuracy_cost.py                      # every knob (≈ 25 min on one core)
     python benchmarks/accuracy_cost.py --knobs time_step_scale remap_order
     python benchmarks/accuracy_cost.py --knobs table_3_2    # the thesis' Table 3-2 (≈ 10 min)
+    python benchmarks/accuracy_cost.py --knobs integration integration_filling   # ≈ 3 min
 
 Each knob is run on one of three small test problems and compared with its most accurate
 setting (the reference row, marked *):
@@ -83,6 +84,10 @@ KNOBS = {
     "fill_layers": ("filling", "fill.layers", [2, 5, 10], 20),
     "fill_duration": ("filling", "fill.duration", [1.0, 2.0, 5.0], 10.0),
     "fill_damping": ("filling", "fill.damping", [0.05, 0.1, 0.3], 0.0),
+    # one point + hourglass control against 2 × 2 points; the stiffness form against none
+    "integration": ("discharge", "numerics.integration", ['"reduced"'], '"full"'),
+    "integration_filling": ("filling", "numerics.integration", ['"reduced"'], '"full"'),
+    "hourglass_stiffness": ("discharge", "numerics.hourglass_stiffness", [0.05, 0.01], 0.0),
 }
 
 

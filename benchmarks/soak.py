@@ -3,6 +3,7 @@
     python benchmarks/soak.py                         # serial: every case, 10 s of discharge
     mpirun -n 2 python benchmarks/soak.py             # the same on 2 ranks, then 1-vs-2 rank columns
     python benchmarks/soak.py --cases long_discharge --cone compression
+    python benchmarks/soak.py --discharge 1 --set numerics.integration='"reduced"' --tag reduced
 
 The cases are the test file's (one list: ``CASES`` there), each with its discharge lengthened to
 ``--discharge`` s, plus two only a soak can afford: ``long_discharge`` (the ch. 3 hopper, 645
@@ -49,11 +50,11 @@ def cases(discharge: float) -> dict[str, tuple[str, list[str], str]]:
     return out
 
 
-def run_case(name: str, scene: str, sets: list[str], cone: str, comm) -> tuple[Path, float]:
+def run_case(name: str, scene: str, sets: list[str], cone: str, comm, tag: str = "") -> tuple[Path, float]:
     from silo_dolfinx.scene import load_scene
     from silo_dolfinx.simulation import run
 
-    out = ROOT / "results" / "soak" / f"{name}_{cone}_n{comm.size}"
+    out = ROOT / "results" / "soak" / f"{name}_{cone}{'_' + tag if tag else ''}_n{comm.size}"
     sc = load_scene(SCENES / f"{scene}.toml", SHORT + sets + [f'material.cone="{cone}"'])
     t0 = time.time()
     try:
@@ -88,6 +89,9 @@ def main(argv=None) -> int:
     ap.add_argument("--discharge", type=float, default=10.0, help="s of discharge for the test cases (default 10)")
     ap.add_argument("--cone", default="extension", help="material.cone for every case (default extension)")
     ap.add_argument("--cases", nargs="+", choices=sorted(all_cases), default=list(all_cases))
+    ap.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                    help="an override for every case (repeatable), e.g. numerics.integration='\"reduced\"'")
+    ap.add_argument("--tag", default="", help="suffix of the results folders (to keep variants apart)")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     chosen = {k: v for k, v in cases(args.discharge).items() if k in args.cases}
@@ -95,15 +99,15 @@ def main(argv=None) -> int:
     for name, (scene, sets, what) in chosen.items():
         if comm.rank == 0:
             print(f"[soak] {name} ({args.cone} cone, {comm.size} rank(s)): {what}", flush=True)
-        out, wall = run_case(name, scene, sets, args.cone, comm)
+        out, wall = run_case(name, scene, sets + args.set, args.cone, comm, args.tag)
         comm.barrier()
         if comm.rank == 0:
             h = run_health(out)
-            other = out.with_name(f"{name}_{args.cone}_n{1 if comm.size > 1 else 2}")
+            other = out.with_name(out.name[:out.name.rindex("_n")] + f"_n{1 if comm.size > 1 else 2}")
             dp, dm = rank_difference(out, other) if other.is_dir() else (np.nan, np.nan)
             rows.append((name, h, wall, dp, dm))
     if comm.rank == 0:
-        print(f"\nHard cases, long ({args.cone} cone, {comm.size} rank(s); bars: energy < 1 %, mass < 0.5 %, "
+        print(f"\nHard cases, long ({args.cone} cone, {comm.size} rank(s){'; ' + ' '.join(args.set) if args.set else ''}; bars: energy < 1 %, mass < 0.5 %, "
               "min scaled Jacobian > 0.2, p_n < 3 ρgH)\n")
         print("| case | status | t (s) | energy err. max | mass err. max | min scaled Jacobian | p_n max / ρgH "
               "| discharged | steps | steps/s | Δt min (s) | 1 vs 2 ranks: p_n store | discharged |")

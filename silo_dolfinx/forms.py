@@ -7,12 +7,16 @@ so forces are in N, masses in kg and energies in J for the full 360°.
 
 Everything is compiled once, before the time loop:
 
-* the **velocity-gradient expression** ``kinematics`` evaluated at the quadrature points:
-  (∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J|);
+* the **quadrature** of the internal force: 2 × 2 Gauss points (``integration = "full"``) or
+  one point at the centre (``"reduced"``, the thesis' CAX4R; the hourglass modes it cannot see
+  are resisted in :mod:`silo_dolfinx.kernels`). The velocity gradient at these points is a
+  compiled kernel fed by the geometry and the dofmap (:func:`silo_dolfinx.kernels.gradients_q1`,
+  checked against the UFL expression of the same quantity in the tests);
 * the **internal force** ``f_int(w) = ∫ σ̃ : ε_axi(w) 2π r dx`` whose only coefficient is
   σ̃ at the quadrature points, supplied pre-packed (the stress kernels write it directly in
   DOLFINx's packed-coefficient layout, ``[cell, q·4 + component]``);
-* the **lumped mass** (row sum of the consistent mass, ``∫ ρ N_a 2π r dx``);
+* the **lumped mass** (row sum of the consistent mass, ``∫ ρ N_a 2π r dx``, at the same
+  quadrature points as the force: a geostatic state is then a discrete equilibrium);
 * the **top surcharge** ``-∫ p n·w 2π r ds`` and the wall-node **tributary areas**
   ``∫ N_a 2π r ds``.
 
@@ -32,6 +36,7 @@ import ufl
 from dolfinx import fem
 
 QUADRATURE_DEGREE = 2  # 2 × 2 Gauss points on Q1 quadrilaterals
+INTEGRATION = {"full": 2, "reduced": 1}  # quadrature degree: 2 × 2 points, or one at the centre
 TWO_PI = 2.0 * math.pi
 
 
@@ -68,32 +73,38 @@ def strain_axi(w):
 class AxisymmetricForms:
     """Compiled forms and expressions on one mesh (built once, reused every step)."""
 
-    def __init__(self, mesh):
+    def __init__(self, mesh, integration: str = "full"):
         self.mesh = mesh
+        self.integration = integration
+        degree = INTEGRATION[integration]
         self.V = fem.functionspace(mesh, ("Lagrange", 1, (2,)))
         self.S = fem.functionspace(mesh, ("Lagrange", 1))  # scalar nodal quantities (lumped mass)
         if not np.array_equal(self.S.dofmap.list, self.V.dofmap.list):  # DOLFINx numbers both alike
             raise RuntimeError("the scalar and vector P1 dofmaps differ: nodal masses would be misplaced")
         cell = mesh.basix_cell()
-        self.points, self.weights = basix.make_quadrature(cell, QUADRATURE_DEGREE)
+        points, weights = basix.make_quadrature(cell, degree)
+        self.points = np.ascontiguousarray(points, dtype=np.float64)
+        self.weights = np.ascontiguousarray(weights, dtype=np.float64)
         self.nq = self.points.shape[0]
-        qe = basix.ufl.quadrature_element(cell, value_shape=(4,), degree=QUADRATURE_DEGREE)
+        qe = basix.ufl.quadrature_element(cell, value_shape=(4,), degree=degree)
         self.Q4 = fem.functionspace(mesh, qe)
-        self.Q1 = fem.functionspace(mesh, basix.ufl.quadrature_element(cell, value_shape=(),
-                                                                        degree=QUADRATURE_DEGREE))
+        self._density = fem.Function(fem.functionspace(mesh, basix.ufl.quadrature_element(
+            cell, value_shape=(), degree=degree)), name="density")  # for the lumped mass
         self.velocity = fem.Function(self.V, name="velocity")
         self._stress = fem.Function(self.Q4, name="force_stress")  # placeholder: values are pre-packed
-        self._density = fem.Function(self.Q1, name="density")  # for the lumped mass
         self._w = ufl.TestFunction(self.V)
         x = ufl.SpatialCoordinate(mesh)
         self.r = x[0]
+        self._metadata = {"quadrature_degree": degree}
+        self._facet_metadata = {"quadrature_degree": QUADRATURE_DEGREE}  # tractions, tributary areas: exact
+
+    def velocity_gradient_expression(self) -> fem.Expression:
+        """The UFL expression of what :func:`silo_dolfinx.kernels.gradients_q1` computes at the
+        quadrature points (∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J|): its reference."""
         v = self.velocity
-        J = ufl.JacobianDeterminant(mesh)
-        self.kinematics = fem.Expression(
-            ufl.as_vector([v[0].dx(0), v[0].dx(1), v[1].dx(0), v[1].dx(1), v[0] / self.r, self.r * abs(J)]),
-            self.points,
-        )
-        self._metadata = {"quadrature_degree": QUADRATURE_DEGREE}
+        J = ufl.JacobianDeterminant(self.mesh)
+        return fem.Expression(ufl.as_vector([v[0].dx(0), v[0].dx(1), v[1].dx(0), v[1].dx(1), v[0] / self.r,
+                                             self.r * abs(J)]), self.points)
 
     # ------------------------------------------------------------------ forms on a cell list
     def _dx(self, cells: np.ndarray):
@@ -142,13 +153,13 @@ class AxisymmetricForms:
 
     def surcharge_form(self, facet_tags, tag: int, pressure: fem.Constant) -> fem.Form:
         """Form for the nodal force of a normal pressure on the facets tagged ``tag``."""
-        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=facet_tags, metadata=self._metadata)
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=facet_tags, metadata=self._facet_metadata)
         n = ufl.FacetNormal(self.mesh)
         return fem.form(-pressure * ufl.inner(n, self._w) * TWO_PI * self.r * ds(tag))
 
     def tributary_area_form(self, facet_tags, tag: int) -> fem.Form:
         """Form whose vector holds ∫ N_a 2π r ds over facets ``tag`` (both components)."""
-        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=facet_tags, metadata=self._metadata)
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=facet_tags, metadata=self._facet_metadata)
         return fem.form(ufl.inner(self._w, ufl.as_vector([1.0, 1.0])) * TWO_PI * self.r * ds(tag))
 
 

@@ -128,7 +128,7 @@ def update_density(rho_old, dvol, dt, nq, bbar, rho_new):
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def closure(points, cells, viscosity, bbar, nq, packed):
+def closure(points, cells, viscosity, bbar, packed):
     """Force stress σ̃ into ``packed`` (nc, nq·4); returns (internal work, viscous work) increments.
 
     points = (sig_old, sig_new, deps, dV, rho) (:meth:`QuadratureData.force_in`); cells =
@@ -142,6 +142,7 @@ def closure(points, cells, viscosity, bbar, nq, packed):
     trd_cell, L_cell, c_cell = cells[0], cells[1], cells[2]
     b1, b2 = viscosity
     nc = trd_cell.shape[0]
+    nq = packed.shape[1] // 4
     w_int = 0.0
     w_visc = 0.0
     for c in range(nc):
@@ -241,3 +242,167 @@ def cell_average(values, dV, nq, out):
             s += values[i] * dV[i]
             v += dV[i]
         out[c] = s / v
+
+
+# ---------------------------------------------------------------------------- the compiled strain path
+@numba.njit(cache=True, fastmath=FAST)
+def gradients_q1(x, v, node_dof, cn, points, kin):
+    """Velocity gradient at the quadrature points of Q1 cells, straight from the node
+    positions and the velocity (what ``fem.Expression`` of the same UFL gives, without its
+    per-call packing: the strain path of every step).
+
+    x (n_nodes, ≥2) geometry nodes; v (n_dofs, 2) velocity by dof; node_dof: geometry node →
+    velocity dof; cn (nc, 4) the cells' nodes in tensor order ((ξ, η) = (0,0), (1,0), (0,1),
+    (1,1) on the reference square [0, 1]²); points (nq, 2) reference points.
+    kin (nc, nq, 6) out: ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J|.
+
+    With one point its volume is 2π r_c |det J_c|, not the cell's exact volume of revolution,
+    and that is consistent: J at the centre moves with ∇v at the centre, so this volume changes
+    at exactly the rate tr ε̇ the density update uses (ρ V is conserved in the Lagrangian step);
+    the remap converts to and from the exact volumes it conserves mass in (:mod:`silo_dolfinx.ale`).
+    """
+    nc, nq = cn.shape[0], points.shape[0]
+    for c in range(nc):
+        n0, n1, n2, n3 = cn[c, 0], cn[c, 1], cn[c, 2], cn[c, 3]
+        d0, d1, d2, d3 = node_dof[n0], node_dof[n1], node_dof[n2], node_dof[n3]
+        r0, r1, r2, r3 = x[n0, 0], x[n1, 0], x[n2, 0], x[n3, 0]
+        z0, z1, z2, z3 = x[n0, 1], x[n1, 1], x[n2, 1], x[n3, 1]
+        u0, u1, u2, u3 = v[d0, 0], v[d1, 0], v[d2, 0], v[d3, 0]
+        w0, w1, w2, w3 = v[d0, 1], v[d1, 1], v[d2, 1], v[d3, 1]
+        for q in range(nq):
+            xi, eta = points[q, 0], points[q, 1]
+            # ∂N/∂ξ, ∂N/∂η of the four bilinear shape functions
+            a0, a1, a2, a3 = -(1.0 - eta), 1.0 - eta, -eta, eta
+            b0, b1, b2, b3 = -(1.0 - xi), -xi, 1.0 - xi, xi
+            r_xi = a0 * r0 + a1 * r1 + a2 * r2 + a3 * r3
+            r_eta = b0 * r0 + b1 * r1 + b2 * r2 + b3 * r3
+            z_xi = a0 * z0 + a1 * z1 + a2 * z2 + a3 * z3
+            z_eta = b0 * z0 + b1 * z1 + b2 * z2 + b3 * z3
+            det = r_xi * z_eta - r_eta * z_xi
+            inv = 1.0 / det
+            # ∂f/∂r = (f_ξ z_η − f_η z_ξ)/det, ∂f/∂z = (f_η r_ξ − f_ξ r_η)/det
+            u_xi = a0 * u0 + a1 * u1 + a2 * u2 + a3 * u3
+            u_eta = b0 * u0 + b1 * u1 + b2 * u2 + b3 * u3
+            w_xi = a0 * w0 + a1 * w1 + a2 * w2 + a3 * w3
+            w_eta = b0 * w0 + b1 * w1 + b2 * w2 + b3 * w3
+            N0, N1 = (1.0 - xi) * (1.0 - eta), xi * (1.0 - eta)
+            N2, N3 = (1.0 - xi) * eta, xi * eta
+            r = N0 * r0 + N1 * r1 + N2 * r2 + N3 * r3
+            g = kin[c, q]
+            g[0] = (u_xi * z_eta - u_eta * z_xi) * inv
+            g[1] = (u_eta * r_xi - u_xi * r_eta) * inv
+            g[2] = (w_xi * z_eta - w_eta * z_xi) * inv
+            g[3] = (w_eta * r_xi - w_xi * r_eta) * inv
+            g[4] = (N0 * u0 + N1 * u1 + N2 * u2 + N3 * u3) / r
+            g[5] = r * abs(det)
+
+
+# ---------------------------------------------------------------------------- hourglass control
+# One-point quadrature (numerics.integration = "reduced", the thesis' CAX4R) sees neither of
+# the two hourglass modes of a Q1 quadrilateral - in axisymmetry too: the hoop strain v_r/r at
+# the centre is blind to them. Flanagan & Belytschko (1981): with b_a = ∂N_a/∂x at the centre
+# and h = (1, −1, −1, 1) (tensor order), γ_a = ¼ (h_a − (h·r) b_a^r − (h·z) b_a^z) is orthogonal
+# to every linear field, so the generalised hourglass rate q̇_i = Σ_a γ_a v_ai measures only the
+# modes; the nodal forces f_ai = Q_i γ_a resist them and do no work on a linear field (the
+# patch test holds). Q = Q_s + Q_v:
+#   stiffness  Q̇_s = C_s q̇,  C_s = κ_s (λ + 2μ) A (b·b)/2 · 2π r_c   (stored, remapped by ALE)
+#   viscosity  Q_v = C_v q̇,  C_v = κ_v ρ c_d A √((b·b)/2) · 2π r_c
+# For a square cell of side L: C_s = κ_s (λ + 2μ) 2π r_c (the mode's own plane-strain energy
+# under full integration is (2/3)(λ + 3μ) q² per unit ring length, so κ_s ~ 0.05-0.1 is a few
+# per cent of it) and C_v = κ_v ρ c_d L 2π r_c (critical damping of the stiffness-held mode is
+# 2 √κ_s ρ c_d L 2π r_c). The work Σ Q·q̇ Δt is booked in the energy ledger as ``hourglass``
+# (Abaqus' ALLAE), to be read against the internal energy.
+
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _centre_gradients(r0, r1, r2, r3, z0, z1, z2, z3):
+    """∂N_a/∂r, ∂N_a/∂z at the centre of a Q1 cell (tensor order) and det J there."""
+    # at the centre: ∂N/∂ξ = ½(−1, 1, −1, 1), ∂N/∂η = ½(−1, −1, 1, 1)
+    r_xi = 0.5 * (r1 - r0 + r3 - r2)
+    r_eta = 0.5 * (r2 - r0 + r3 - r1)
+    z_xi = 0.5 * (z1 - z0 + z3 - z2)
+    z_eta = 0.5 * (z2 - z0 + z3 - z1)
+    det = r_xi * z_eta - r_eta * z_xi
+    inv = 1.0 / det
+    br0 = 0.5 * (-z_eta + z_xi) * inv
+    br1 = 0.5 * (z_eta + z_xi) * inv
+    br2 = 0.5 * (-z_eta - z_xi) * inv
+    br3 = 0.5 * (z_eta - z_xi) * inv
+    bz0 = 0.5 * (r_eta - r_xi) * inv
+    bz1 = 0.5 * (-r_eta - r_xi) * inv
+    bz2 = 0.5 * (r_eta + r_xi) * inv
+    bz3 = 0.5 * (-r_eta + r_xi) * inv
+    return br0, br1, br2, br3, bz0, bz1, bz2, bz3, det
+
+
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _hourglass_shape(x, cn, c):
+    """γ (4,) and (area, b·b, r_c) of cell c at positions x (tensor-order nodes)."""
+    n0, n1, n2, n3 = cn[c, 0], cn[c, 1], cn[c, 2], cn[c, 3]
+    r0, r1, r2, r3 = x[n0, 0], x[n1, 0], x[n2, 0], x[n3, 0]
+    z0, z1, z2, z3 = x[n0, 1], x[n1, 1], x[n2, 1], x[n3, 1]
+    br0, br1, br2, br3, bz0, bz1, bz2, bz3, det = _centre_gradients(r0, r1, r2, r3, z0, z1, z2, z3)
+    hr = r0 - r1 - r2 + r3
+    hz = z0 - z1 - z2 + z3
+    g0 = 0.25 * (1.0 - hr * br0 - hz * bz0)
+    g1 = 0.25 * (-1.0 - hr * br1 - hz * bz1)
+    g2 = 0.25 * (-1.0 - hr * br2 - hz * bz2)
+    g3 = 0.25 * (1.0 - hr * br3 - hz * bz3)
+    bb = br0 * br0 + br1 * br1 + br2 * br2 + br3 * br3 + bz0 * bz0 + bz1 * bz1 + bz2 * bz2 + bz3 * bz3
+    return g0, g1, g2, g3, abs(det), bb, 0.25 * (r0 + r1 + r2 + r3)
+
+
+@numba.njit(cache=True, fastmath=FAST)
+def hourglass_update(x, v, node_dof, cn, cell, law, dt, forces):
+    """Generalised hourglass forces of the step, forces = (Q_s^n, Q_s^{n+1}, Q_v, f): Q_s
+    (stiffness, from Q_s^n into Q_s^{n+1}) and Q_v (viscosity), all (nc, 2), from the hourglass
+    rate of v^{n+½} on the cells at x, and their nodal forces Q_i γ_a added to f (n_dofs, 2) in
+    the same pass (:func:`hourglass_force` for a force rebuilt later); returns the hourglass
+    work of the step (J), trapezoidal in Q_s.
+
+    cell = (ρ (nc,), σ (nc, 4)) of the cells (one point each); law = (λ + 2μ, κ_s, κ_v, tan β, d).
+    The stored force is capped at the cell's shear strength, |Q_s,i| ≤ q_y A √(b·b/2) 2π r_c with
+    q_y = p tan β + d (tan β < 0: no cap): the bilinear stress field an hourglass mode stands for
+    cannot exceed yield in a plastic solid either (with 2 × 2 points it is capped at the points),
+    so the control holds a cell at rest against its load but does not hold back a flowing one."""
+    rho_cell, sig = cell
+    modulus, ks, kv, tanb, d = law
+    qs_old, qs_new, qv, f = forces
+    w = 0.0
+    for c in range(cn.shape[0]):
+        g0, g1, g2, g3, area, bb, rc = _hourglass_shape(x, cn, c)
+        d0, d1, d2, d3 = node_dof[cn[c, 0]], node_dof[cn[c, 1]], node_dof[cn[c, 2]], node_dof[cn[c, 3]]
+        ring = TWO_PI * rc
+        cs = ks * modulus * area * bb * 0.5 * ring
+        cv = kv * rho_cell[c] * math.sqrt(modulus / rho_cell[c]) * area * math.sqrt(0.5 * bb) * ring
+        cap = 1e300
+        if tanb >= 0.0:
+            p = -(sig[c, 0] + sig[c, 1] + sig[c, 2]) / 3.0
+            cap = max(p * tanb + d, 0.0) * area * math.sqrt(0.5 * bb) * ring
+        for i in range(2):
+            qd = g0 * v[d0, i] + g1 * v[d1, i] + g2 * v[d2, i] + g3 * v[d3, i]
+            qs_new[c, i] = min(max(qs_old[c, i] + cs * qd * dt, -cap), cap)
+            qv[c, i] = cv * qd
+            w += (0.5 * (qs_old[c, i] + qs_new[c, i]) + qv[c, i]) * qd * dt
+            Q = qs_new[c, i] + qv[c, i]
+            f[d0, i] += Q * g0
+            f[d1, i] += Q * g1
+            f[d2, i] += Q * g2
+            f[d3, i] += Q * g3
+    return w
+
+
+@numba.njit(cache=True, fastmath=FAST)
+def hourglass_force(x, node_dof, cn, q_hourglass, f):
+    """Add the hourglass forces f_ai += Q_i γ_a of every cell, Q = Q_s + Q_v with
+    ``q_hourglass`` = (Q_s, Q_v), (nc, 2) each (Q_s: zeros when the stiffness form is off), to the
+    internal force ``f`` (n_dofs, 2; owned and ghost rows, before the ghost accumulation)."""
+    qs, qv = q_hourglass
+    for c in range(cn.shape[0]):
+        g0, g1, g2, g3, area, bb, rc = _hourglass_shape(x, cn, c)
+        d0, d1, d2, d3 = node_dof[cn[c, 0]], node_dof[cn[c, 1]], node_dof[cn[c, 2]], node_dof[cn[c, 3]]
+        for i in range(2):
+            Q = qs[c, i] + qv[c, i]
+            f[d0, i] += Q * g0
+            f[d1, i] += Q * g1
+            f[d2, i] += Q * g2
+            f[d3, i] += Q * g3

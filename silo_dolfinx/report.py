@@ -656,8 +656,8 @@ class Report:
             self.missing.append("energy history (energy.csv)")
             return
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
-        for k in ("kinetic", "elastic", "plastic", "viscous", "damping", "gravity_work", "external_work",
-                  "contact_work"):
+        for k in ("kinetic", "elastic", "plastic", "viscous", "damping", "hourglass", "gravity_work",
+                  "external_work", "contact_work"):
             if k in d and np.nanmax(np.abs(d[k])) > 0:
                 a1.plot(d["t"], d[k], lw=1, label=k)
         a1.set_ylabel("energy (J)")

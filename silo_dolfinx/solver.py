@@ -62,12 +62,19 @@ class Numerics:
     bbar: bool = True
     damping: float = 0.0  # initial mass-proportional damping α (1/s), f = −α M v; stages declare theirs
     min_time_step_fraction: float = 0.0  # stop when the stable Δt falls below this × its reference (0: never)
+    integration: str = "full"  # "full": 2 × 2 points; "reduced": one point + hourglass control
+    hourglass: tuple[float, float] = (0.0, 0.1)  # (κ_s, κ_v) of the hourglass control (reduced only)
 
     @classmethod
     def from_scene(cls, scene) -> Numerics:
         n = scene.numerics
         return cls(n.time_step_scale, tuple(n.bulk_viscosity), n.mass_scaling,
-                   min_time_step_fraction=n.min_time_step_fraction)
+                   min_time_step_fraction=n.min_time_step_fraction, integration=n.integration,
+                   hourglass=(n.hourglass_stiffness, n.hourglass_viscosity))
+
+    @property
+    def hourglass_control(self) -> bool:
+        return self.integration == "reduced" and any(k > 0.0 for k in self.hourglass)
 
 
 @dataclass
@@ -113,11 +120,16 @@ class ExplicitSolver:
         self.numerics = numerics or Numerics()
         self.gravity = gravity
         self.damping = self.numerics.damping  # α (1/s): the current stage's declared value
-        self.forms = AxisymmetricForms(mesh)
+        self.forms = AxisymmetricForms(mesh, self.numerics.integration)
         self.V = self.forms.V
         imap = self.V.dofmap.index_map
         self.n_owned, self.n_nodes = imap.size_local, imap.size_local + imap.num_ghosts
         self.nq = self.forms.nq
+        # the quadrature fields: the law's declared state, and the stored hourglass force
+        self._hourglass_law = (material.wave_modulus, *map(float, self.numerics.hourglass), *material.strength)
+        self.point_fields = dict(material.state_fields)
+        if self.numerics.hourglass_control and self.numerics.hourglass[0] > 0.0:
+            self.point_fields["hourglass"] = 2
         self.n_cells_owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self._number_nodes(mesh)
         self.nodes = NodalData.allocate(self.forms.velocity.x.array.reshape(-1, 2))
@@ -138,7 +150,7 @@ class ExplicitSolver:
         self.dt_prev, self.dt, self.dt_crit = 0.0, 0.0, math.inf
         self._dt_crit0 = math.inf  # the stable Δt at the last rebuild (collapse guard)
         self.dt_reference = 0.0  # the stable Δt at the last activation ([numerics] min_time_step_fraction)
-        self._increment = (0.0, 0.0, 0.0)  # (plastic, viscous, internal work) of the last step
+        self._increment = (0.0, 0.0, 0.0, 0.0)  # (plastic, viscous, internal work, hourglass) of the last step
         self._active = None
         self.timings: dict[str, float] = {}
         self._clock = _no_clock
@@ -147,6 +159,7 @@ class ExplicitSolver:
     def _number_nodes(self, mesh) -> None:
         """node <-> dof maps (Q1 geometry: one geometry node per vertex, same local order)."""
         gdm = tensor_nodes(mesh)
+        self.cell_tensor = gdm
         self.cell_nodes = np.ascontiguousarray(gdm[:, CYCLE])  # boundary cycle
         self.cell_orientation = orientation(mesh.geometry.x, self.cell_nodes)  # of the valid initial mesh
         self.node_dof = np.empty(mesh.geometry.x.shape[0], np.int64)
@@ -178,11 +191,11 @@ class ExplicitSolver:
         """Integrate over ``cells`` only (owned, sorted); state of cells already active is kept."""
         cells = np.asarray(np.sort(cells), np.int32)
         old, old_q = self._active, getattr(self, "q", None)
-        self.q = QuadratureData.allocate(cells.size, self.nq, self.material.state_fields, self.material.density)
+        self.q = QuadratureData.allocate(cells.size, self.nq, self.point_fields, self.material.density)
         if old is not None and keep_state:
             kept = np.isin(old, cells)  # cells that stay active keep their state
             pos = np.searchsorted(cells, old[kept])
-            fields = self.material.state_fields
+            fields = self.point_fields
             for (_, a_new), (_, a_old) in zip(self.q.now.arrays(self.nq, fields), old_q.now.arrays(self.nq, fields)):
                 a_new[pos] = a_old[kept]
         self._active = cells
@@ -190,6 +203,8 @@ class ExplicitSolver:
         self._mass_form = self.forms.mass_form(cells)
         self._coeffs = {key: self.q.packed}
         self._active_nodes = np.ascontiguousarray(self.cell_nodes[cells])
+        self._active_tensor = np.ascontiguousarray(self.cell_tensor[cells])
+        self._no_hourglass = np.zeros((cells.size, 2))
         self._active_orientation = np.ascontiguousarray(self.cell_orientation[cells])
         self._update_stable_dt()
         self.dt_reference = self.dt_crit  # what Δt may fall from: a remap does not reset it
@@ -245,8 +260,8 @@ class ExplicitSolver:
             if dt <= self.numerics.time_step_scale * dt_crit * (1.0 + REJECT_TOLERANCE):
                 break
             self._reject(dt_crit)
-        w_int, w_visc = self._internal_force(dt)                 # 4. f_int^{n+1}
-        self._book_energy(dt, dt_avg, d_plastic, w_visc, w_int)
+        w_int, w_visc, w_hg = self._internal_force(dt)           # 4. f_int^{n+1}
+        self._book_energy(dt, dt_avg, d_plastic, (w_visc, w_int, w_hg))
         self._commit(dt, dt_crit)
         return dt
 
@@ -283,7 +298,7 @@ class ExplicitSolver:
         x, q, num = self.mesh.geometry.x, self.q, self.numerics
         np.copyto(self._x_old, x)
         _move(x, self._x_old, self.nodes.v, self.node_dof, 0.5 * dt)
-        self.forms.kinematics.eval(self.mesh, self._active, q.kin)
+        self._velocity_gradient()
         kernels.kinematics(q.kin, self.forms.weights, dt, num.bbar, q.kinematics_out())
         _move(x, self._x_old, self.nodes.v, self.node_dof, dt)
         kernels.rotate(q.now.sig, q.spin, q.sig_rot)
@@ -293,6 +308,11 @@ class ExplicitSolver:
         kernels.cell_average(q.new.rho, q.dV, self.nq, q.cells.rho)
         self._clock("constitutive")
         return d_plastic
+
+    def _velocity_gradient(self) -> None:
+        """∂v/∂x, v_r/r and r|det J| at the quadrature points of the active cells (compiled)."""
+        kernels.gradients_q1(self.mesh.geometry.x, self.nodes.v, self.node_dof, self._active_tensor,
+                             self.forms.points, self.q.kin)
 
     def _stable_dt(self) -> float:
         """min over cells of the stable Δt of the current configuration (all ranks)."""
@@ -375,16 +395,30 @@ class ExplicitSolver:
         """Force stress into the form's coefficients, then f_int^{n+1} by one compiled
         assembly (skipped if ``defer_force``: the remap that follows rebuilds it)."""
         num, q = self.numerics, self.q
-        w = kernels.closure(q.force_in(q.sig_rot, q.new), q.cells.arrays, num.bulk_viscosity, num.bbar, self.nq,
-                            q.packed)
+        w_int, w_visc = kernels.closure(q.force_in(q.sig_rot, q.new), q.cells.arrays, num.bulk_viscosity, num.bbar,
+                                        q.packed)
+        w_hg, vec = 0.0, self._fvec_new
+        if num.hourglass_control:  # Q of the hourglass modes from v^{n+½} on x^{n+1}, and their forces
+            vec.array[:] = 0.0
+            w_hg = kernels.hourglass_update(self.mesh.geometry.x, self.nodes.v, self.node_dof, self._active_tensor,
+                                            (q.cells.rho, q.new.sig), self._hourglass_law, dt,
+                                            (self._hourglass_stored(q.now), self._hourglass_stored(q.new),
+                                             q.hourglass_viscous, vec.array.reshape(-1, 2)))
         if not self.defer_force:
-            self._assemble_internal_force(self._fvec_new)
+            self._assemble_internal_force(vec, hourglass=not num.hourglass_control)
         self._clock("assembly")
-        return w
+        return w_int, w_visc, w_hg
 
-    def _book_energy(self, dt: float, dt_avg: float, d_plastic: float, w_visc: float, w_int: float) -> None:
-        """Forces of step n acting over ½(Δx^{n−½} + Δx^{n+½}), into the ledger."""
+    def _hourglass_stored(self, level) -> np.ndarray:
+        """The stored (stiffness) hourglass force Q_s of a time level, (n_cells, 2); zeros
+        without the stiffness form (a read-only zero array: κ_s = 0 keeps it zero)."""
+        return level.state["hourglass"] if "hourglass" in level.state else self._no_hourglass
+
+    def _book_energy(self, dt: float, dt_avg: float, d_plastic: float, work: tuple[float, float, float]) -> None:
+        """Forces of step n acting over ½(Δx^{n−½} + Δx^{n+½}), into the ledger; ``work`` =
+        (bulk-viscous, stress power, hourglass) of the step (J)."""
         n, e, own = self.nodes, self.energy, self.n_owned
+        w_visc, w_int, w_hg = work
         w_ext, w_corr, w_damp = _work(n.work_in(), dt, dt_avg, self.damping, own)
         for g in self.loads:
             if g.kind == "gravity":
@@ -395,7 +429,8 @@ class ExplicitSolver:
         e.plastic += d_plastic
         e.viscous += w_visc
         e.internal_work += w_int
-        self._increment = (d_plastic, w_visc, w_int)
+        e.hourglass += w_hg
+        self._increment = (d_plastic, w_visc, w_int, w_hg)
 
     def _commit(self, dt: float, dt_crit: float) -> None:
         """t_{n+1} becomes t_n: swap the double buffers, advance time, take the next Δt."""
@@ -421,20 +456,28 @@ class ExplicitSolver:
         if self.dt == 0.0:
             self.dt = num.time_step_scale * self.dt_crit
 
-    def _assemble_internal_force(self, vec) -> None:
+    def _assemble_internal_force(self, vec, hourglass: bool = True) -> None:
+        """f_int = ∫ σ̃ : ε_axi(w) 2π r dx (the compiled form) + the hourglass forces of t_n,
+        ghost contributions accumulated. ``hourglass=False``: the step's hourglass update has
+        just put this step's hourglass forces into ``vec`` (zeroed before it), the form adds to them."""
         from dolfinx import fem, la
 
-        vec.array[:] = 0.0
+        if hourglass:
+            vec.array[:] = 0.0
+            if self.numerics.hourglass_control:
+                kernels.hourglass_force(self.mesh.geometry.x, self.node_dof, self._active_tensor,
+                                        (self._hourglass_stored(self.q.now), self.q.hourglass_viscous),
+                                        vec.array.reshape(-1, 2))
         fem.assemble_vector(vec.array, self.force_form, constants=np.zeros(0), coeffs=self._coeffs)
         vec.scatter_reverse(la.InsertMode.add)
 
     def refresh_force(self) -> None:
         """Internal force and volumes from the stored stress at rest (start, activation, remap)."""
         q, num = self.q, self.numerics
-        self.forms.kinematics.eval(self.mesh, self._active, q.kin)
+        self._velocity_gradient()
         kernels.kinematics(q.kin, self.forms.weights, 0.0, num.bbar, q.kinematics_out())
         kernels.cell_average(q.now.rho, q.dV, self.nq, q.cells.rho)
-        kernels.closure(q.force_in(q.now.sig, q.now), q.cells.arrays, (0.0, 0.0), num.bbar, self.nq, q.packed)
+        kernels.closure(q.force_in(q.now.sig, q.now), q.cells.arrays, (0.0, 0.0), num.bbar, q.packed)
         self._assemble_internal_force(self._fvec)
         self._force_stale = False
 
@@ -466,8 +509,7 @@ class ExplicitSolver:
         self._update_stable_dt()
         self.dt = num.time_step_scale * self.dt_crit
         self.rebuild_mass()
-        kernels.closure(q.force_in(q.now.sig, q.now), q.cells.arrays, num.bulk_viscosity, num.bbar, self.nq,
-                        q.packed)
+        kernels.closure(q.force_in(q.now.sig, q.now), q.cells.arrays, num.bulk_viscosity, num.bbar, q.packed)
         t0 = time.perf_counter()
         self._assemble_internal_force(self._fvec)
         deferred = time.perf_counter() - t0 if self._force_stale else 0.0
@@ -491,10 +533,11 @@ class ExplicitSolver:
         ke, el = self._kinetic_elastic_local()
         names = Energy.names()[2:]
         local = np.array([ke, el] + [getattr(e, k) for k in names])
-        dp, dv, di = self._increment
+        dp, dv, di, dh = self._increment
         local[2] -= 0.5 * dp
         local[3] -= 0.5 * dv
         local[8] -= 0.5 * di
+        local[12] -= 0.5 * dh
         g = Energy(*map(float, self.comm.allreduce(local, op=MPI.SUM)))
         self.energy_scale = max(self.energy_scale, g.scale)
         return g

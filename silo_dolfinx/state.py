@@ -73,8 +73,9 @@ class QuadratureData:
     dvol: np.ndarray  # volumetric strain rate (density update)
     dV: np.ndarray  # quadrature volume 2π r |det J| w_q
     cells: CellData
-    kin: np.ndarray  # (nc, nq, 6) velocity gradient, v_r/r, r|det J| (fem.Expression output)
+    kin: np.ndarray  # (nc, nq, 6) velocity gradient, v_r/r, r|det J| (kernels.gradients_q1)
     packed: np.ndarray  # (nc, nq·4) force stress σ̃: the internal-force form's coefficient
+    hourglass_viscous: np.ndarray  # (nc, 2) viscous hourglass force Q_v of the last step (reduced integration)
 
     @classmethod
     def allocate(cls, nc: int, nq: int, state_fields: dict[str, int], density: float) -> QuadratureData:
@@ -82,7 +83,7 @@ class QuadratureData:
         return cls(PointState.allocate(n, state_fields, density), PointState.allocate(n, state_fields, 0.0),
                    np.zeros((n, 4)), np.zeros((n, 4)), np.zeros(n), np.zeros(n), np.zeros(n),
                    CellData(np.zeros(nc), np.zeros(nc), np.zeros(nc), np.full(nc, density)),
-                   np.zeros((nc, nq, 6)), np.zeros((nc, nq * 4)))
+                   np.zeros((nc, nq, 6)), np.zeros((nc, nq * 4)), np.zeros((nc, 2)))
 
     def swap(self) -> None:
         """Commit: t_{n+1} becomes t_n (the old level is the next step's output buffer)."""
@@ -139,6 +140,7 @@ class Energy:
     remap: float = 0.0  # kinetic + elastic energy lost by ALE remaps (numerical dissipation)
     outflow: float = 0.0  # kinetic + elastic energy carried out through the outlet
     initial: float = 0.0  # energy stored in a prescribed initial state (a K0 stress field)
+    hourglass: float = 0.0  # work against the hourglass control (reduced integration; Abaqus' ALLAE)
 
     @classmethod
     def names(cls) -> list[str]:
@@ -147,7 +149,7 @@ class Energy:
     @property
     def balance(self) -> float:
         return (self.kinetic + self.elastic + self.plastic + self.viscous + self.damping + self.remap
-                + self.outflow - self.external - self.initial)
+                + self.outflow + self.hourglass - self.external - self.initial)
 
     @property
     def scale(self) -> float:

@@ -69,8 +69,7 @@ class ALE:
                                  objective=a.smoothing_objective)
         self.remapper = Remapper(self.mesh, model.sm.facets("outlet"), a.remap_order)
         self.cn_tensor = tensor_nodes(self.mesh, s.n_cells_owned)
-        m = s.material
-        self.fields = [("sig", 4)] + [(k, c) for k, c in m.state_fields.items()]
+        self.fields = [("sig", 4)] + list(s.point_fields.items())  # the law's state, the hourglass force
         self.k = sum(c for _, c in self.fields)
         n = s.n_cells_owned * s.nq
         no = s.n_cells_owned
@@ -88,6 +87,9 @@ class ALE:
         self._outlet_points = (self._outlet_cells[:, None] * s.nq + np.arange(s.nq)).ravel()
         self._points = np.ascontiguousarray(s.forms.points, dtype=np.float64)
         self._weights = np.ascontiguousarray(s.forms.weights, dtype=np.float64)
+        # one-point quadrature's cell volume 2π r_c |det J_c| is not the exact volume of
+        # revolution the remap conserves mass in: densities are converted to and from it
+        self._exact = (np.zeros(self.remapper.n_all), np.zeros((self.remapper.n_all, 2))) if s.nq == 1 else None
         self.stats = ALEStats()
         self.tracers = Tracers(self, a.tracer_rows, a.tracer_columns) if a.tracer_rows * a.tracer_columns > 0 else None
         self.followers: list[Tracers] = []  # material points of the outputs (``follow``)
@@ -138,6 +140,8 @@ class ALE:
         v = s.v if self._same_numbering else np.ascontiguousarray(s.v[s.node_dof])  # remapped in place
         before = s.mechanical_energy_local(increment=self._dsig)  # and the last step's stress increment
         elastic_density = self._elastic_per_mass()  # J/kg of the outlet cells, for what flows out
+        if self._exact is not None:  # the solver's cell mass ρ V_1pt as a density of the exact volume
+            rho *= self._vol / self.remapper.volumes(xL, self._exact)[:no]
 
         try:
             rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
@@ -152,6 +156,8 @@ class ALE:
         # write back: mesh, quadrature data, velocity; rebuild what depends on them
         x[:, :2] = xS
         qp_volumes(xS, self.cn_tensor, self._points, self._weights, no, self._dV)
+        if self._exact is not None:  # and back: the density whose one-point cell mass is the remapped mass
+            rho *= self.remapper.volumes(xS, self._exact)[:no] / self._dV
         for j0, a in self._field_arrays():
             redistribute(a, nq, self._dV, means, lo, hi, j0)
         s.rho.reshape(-1, nq)[:] = rho[:, None]

@@ -36,6 +36,12 @@ class Material(ABC):
         self.G = E / (2.0 * (1.0 + nu))
 
     @property
+    def strength(self) -> tuple[float, float]:
+        """(tan β, d) of the shear strength q_y = p tan β + d the law caps q at; (−1, 0) for a
+        law without one (the hourglass control's stiffness is then not capped)."""
+        return (-1.0, 0.0)
+
+    @property
     def wave_modulus(self) -> float:
         """P-wave (constrained) modulus λ + 2μ = K + 4G/3 (Pa)."""
         return self.K + 4.0 * self.G / 3.0

@@ -61,6 +61,10 @@ class DruckerPrager(Material):
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
         return float(_update(sig, deps, state_old["eqps"], self.parameters, sig_new, state_new["eqps"], dV))
 
+    @property
+    def strength(self) -> tuple[float, float]:
+        return (float(self.tan_beta), float(self.cohesion))
+
     @functools.cached_property
     def parameters(self) -> tuple[float, ...]:
         """The law's constants as its kernel reads them (K, G, tan β, tan ψ, d, c_nc, ε̄_p,c, T);

@@ -48,10 +48,12 @@ ENERGY = CsvFile("energy.csv", "The energy ledger (J, full 360°), at the histor
     C("remap", "J", "kinetic + elastic energy lost by ALE remaps (upwinding)"),
     C("outflow", "J", "kinetic + elastic energy carried out through the outlet"),
     C("initial", "J", "energy of a prescribed initial (K0) stress field"),
+    C("hourglass", "J", "work against the hourglass control (numerics.integration = \"reduced\"; Abaqus' "
+      "ALLAE): read it against elastic + plastic"),
     C("gravity_work", "J", "work of gravity"),
     C("external_work", "J", "work of gravity, surcharge, prescribed velocities and contact"),
     C("contact_work", "J", "work of the wall and gate contact forces (and prescribed velocities)"),
-    C("balance", "J", "kinetic + elastic + dissipated + remap + outflow − external − initial"),
+    C("balance", "J", "kinetic + elastic + dissipated + remap + outflow + hourglass − external − initial"),
     C("relative_error", "-", "|balance| over the largest energy scale so far"),
 ))
 

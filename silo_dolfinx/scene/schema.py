@@ -352,6 +352,17 @@ NUMERICS = Section(
             "coefficients; [0, 0] switches it off.", lo=0.0, length=2),
         F("mass_scaling", 1.0, "-", "Factor on the inertial mass (Δt grows with its square root); "
           "1 = none.", lo=1.0, hi=1.0e6),
+        C("integration", ("full", "reduced"), "full",
+          "Quadrature of the Q1 cells: full = 2 × 2 Gauss points with the mean-dilatation (B-bar) pressure; "
+          "reduced = one point at the centre (the thesis' Abaqus CAX4R) with Flanagan-Belytschko hourglass "
+          "control: 1.36× cheaper per step, the same discharge rate and fill pressures within 1 % on the ch. 4 "
+          "hopper, but a coarse mesh needs hourglass stiffness to hold a cell at rest (docs/performance.md)."),
+        F("hourglass_viscosity", 0.1, "-", "κ_v of the viscous hourglass control (reduced integration): "
+          "Q = κ_v ρ c_d A √((b·b)/2) · 2πr q̇ per cell. Its work is the energy column hourglass.", lo=0.0, hi=1.0),
+        F("hourglass_stiffness", 0.0, "-", "κ_s of the stiffness hourglass control (reduced integration): "
+          "Q̇ = κ_s (λ+2μ) A (b·b)/2 · 2πr q̇ per cell, |Q| capped at the cell's shear strength (p tan β + d) "
+          "A √((b·b)/2) 2πr. Holds hourglass modes at rest (a coarse K0 start needs ~0.3) but slows a "
+          "discharge (0.1-0.3: −7 to −9 % on the ch. 4 hopper), so off by default.", lo=0.0, hi=1.0),
         F("min_time_step_fraction", 0.01, "-", "Stop with a diagnosis (the limiting cell, its density, the "
           "likely cause and fix) when the stable Δt falls below this fraction of its value when the "
           "cells were last activated (a remap does not reset it): an arch over the outlet empties the "

@@ -175,10 +175,10 @@ class Remapper:
         return vec.array.reshape(self.n_all, *shape), vec
 
     # ------------------------------------------------------------------ queries
-    def volumes(self, x: np.ndarray) -> np.ndarray:
-        """Exact volumes of revolution of the local cells at node positions ``x``."""
-        vol = np.zeros(self.n_all)
-        cen = np.zeros((self.n_all, 2))
+    def volumes(self, x: np.ndarray, out: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """Exact volumes of revolution of the local cells at node positions ``x`` (into
+        ``out`` = (volumes (n_all,), centroids (n_all, 2)) if given: no allocation)."""
+        vol, cen = out if out is not None else (np.zeros(self.n_all), np.zeros((self.n_all, 2)))
         cell_geometry(np.ascontiguousarray(x[:, :2]), self.cn, self.orient, vol, cen)
         return vol
 

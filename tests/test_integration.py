@@ -172,5 +172,8 @@ def test_a_discharge_with_one_point_quadrature_stays_free_of_hourglass_patterns(
     internal = e["elastic"] + e["plastic"]
     assert e["hourglass"][-1] < 0.02 * internal[-1], (e["hourglass"][-1], internal[-1])
     assert np.all(e["hourglass"] >= -1e-9 * internal.max())  # work against a resisting force: never negative
+    # the remap's density conversion (one-point volume <-> exact volume of revolution) keeps the
+    # mass balance at round-off (measured 9e-9; without it 2.5 % was lost over a 30-s discharge)
+    assert out["reduced"]["mass_error_max"] < 1e-6
     full, reduced = out["full"]["discharged_mass"], out["reduced"]["discharged_mass"]
     assert abs(reduced - full) < 0.03 * full, (full, reduced)

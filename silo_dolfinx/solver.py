@@ -410,8 +410,8 @@ class ExplicitSolver:
         return w_int, w_visc, w_hg
 
     def _hourglass_stored(self, level) -> np.ndarray:
-        """The stored (stiffness) hourglass force Q_s of a time level, (n_cells, 2); zeros
-        without the stiffness form (a read-only zero array: κ_s = 0 keeps it zero)."""
+        """The stored (stiffness) hourglass force Q_s of a time level, (n_cells, 2); without the
+        stiffness form one shared zero array for both levels (κ_s = 0 writes zeros into it)."""
         return level.state["hourglass"] if "hourglass" in level.state else self._no_hourglass
 
     def _book_energy(self, dt: float, dt_avg: float, d_plastic: float, work: tuple[float, float, float]) -> None:

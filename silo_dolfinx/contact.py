@@ -93,6 +93,8 @@ class WallContact:
         self.s = np.zeros(n)  # arclength of the contact point
         self.normal = np.zeros((n, 2))
         self._p = np.zeros((n, 2))
+        # the projection of every step, into arrays kept here (no allocation per step)
+        self._gap, self._closest, self._piece = np.zeros(n), np.zeros((n, 2)), np.zeros(n, np.int64)
         t0 = np.subtract(wall.pieces[0].start, wall.point_at(min(1e-9, wall.length))[0])
         t1 = np.subtract(wall.point_at(max(wall.length - 1e-9, 0.0))[0], wall.pieces[-1].end)
         # start point, outward direction beyond the start, end point, outward direction beyond the end
@@ -102,20 +104,18 @@ class WallContact:
         """Drop nodes whose velocity is prescribed: they are driven, not in contact."""
         keep = ~np.isin(self.dofs, dofs)
         self.nodes, self.dofs = self.nodes[keep], self.dofs[keep]
-        for name in ("normal_force", "shear_force", "slip_velocity", "in_contact", "s", "normal", "_p"):
+        for name in ("normal_force", "shear_force", "slip_velocity", "in_contact", "s", "normal", "_p", "_gap",
+                     "_closest", "_piece"):
             setattr(self, name, getattr(self, name)[keep])
 
     def apply(self, x: np.ndarray, v: np.ndarray, mass: np.ndarray, dt: float, dt_avg: float) -> None:
         """Correct the predicted velocities ``v`` (block array) of the contact nodes in place."""
         if self.nodes.size == 0:
             return
-        np.copyto(self._p, x[self.nodes, :2])
-        _predict(self._p, v, self.dofs, dt)
-        proj = self.wall.project(self._p)
-        _open_ends(proj.distance, proj.s, self._p, self._ends, self.wall.length)
-        self.s[:] = proj.s
-        self.normal[:] = proj.normal
-        _correct(v, self.dofs, mass, (proj.distance, proj.normal, proj.piece), self._law_table,
+        _predict(self._p, x, self.nodes, v, self.dofs, dt)
+        self.wall.project_into(self._p, (self._gap, self._closest, self.normal, self.s, self._piece))
+        _open_ends(self._gap, self.s, self._p, self._ends, self.wall.length)
+        _correct(v, self.dofs, mass, (self._gap, self.normal, self._piece), self._law_table,
                  (dt, dt_avg, self._frictionless), self.outputs)
 
     @property
@@ -141,10 +141,11 @@ def _open_ends(gap, s, p, ends, length):
 
 
 @numba.njit(cache=True)
-def _predict(p, v, dofs, dt):
+def _predict(p, x, nodes, v, dofs, dt):
+    """The contact nodes' predicted positions x + Δt v^{n+½}, into p."""
     for k in range(p.shape[0]):
-        p[k, 0] += dt * v[dofs[k], 0]
-        p[k, 1] += dt * v[dofs[k], 1]
+        p[k, 0] = x[nodes[k], 0] + dt * v[dofs[k], 0]
+        p[k, 1] = x[nodes[k], 1] + dt * v[dofs[k], 1]
 
 
 @numba.njit(cache=True)

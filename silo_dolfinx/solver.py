@@ -137,6 +137,7 @@ class ExplicitSolver:
         # internal force f_int^n and f_int^{n+1} in two la.Vectors (ghosts accumulate), swapped on commit
         self._fvec, self._fvec_new = la.vector(imap, 2), la.vector(imap, 2)
         self._mass_vec = la.vector(imap, 1)  # the lumped mass, assembled in place
+        self.x = mesh.geometry.x  # the node positions: a view of DOLFINx's own array (moved in place)
         self.x0 = mesh.geometry.x.copy()
         self._x_old = mesh.geometry.x.copy()
         self.defer_force = False  # skip this step's internal force (a remap rebuilds it)
@@ -286,7 +287,7 @@ class ExplicitSolver:
             if c.value is None:
                 v[c.dofs, c.comp] = 0.0
         for contact in self.contacts:
-            contact.apply(self.mesh.geometry.x, v, self.nodes.m_inertial, dt, dt_avg)
+            contact.apply(self.x, v, self.nodes.m_inertial, dt, dt_avg)
         for c in self.constraints:
             v[c.dofs, c.comp] = 0.0 if c.value is None else c.value(t_mid)
         self._vvec.scatter_forward()
@@ -295,7 +296,7 @@ class ExplicitSolver:
     def _update_quadrature_data(self, dt: float) -> float:
         """Mid-step kinematics, end configuration, Jaumann rotation, the law, the density;
         returns the plastic dissipation (J). Fills ``q.new`` (Laghos' UpdateQuadratureData)."""
-        x, q, num = self.mesh.geometry.x, self.q, self.numerics
+        x, q, num = self.x, self.q, self.numerics
         np.copyto(self._x_old, x)
         _move(x, self._x_old, self.nodes.v, self.node_dof, 0.5 * dt)
         self._velocity_gradient()
@@ -311,7 +312,7 @@ class ExplicitSolver:
 
     def _velocity_gradient(self) -> None:
         """∂v/∂x, v_r/r and r|det J| at the quadrature points of the active cells (compiled)."""
-        kernels.gradients_q1(self.mesh.geometry.x, self.nodes.v, self.node_dof, self._active_tensor,
+        kernels.gradients_q1(self.x, self.nodes.v, self.node_dof, self._active_tensor,
                              self.forms.points, self.q.kin)
 
     def _stable_dt(self) -> float:
@@ -322,11 +323,11 @@ class ExplicitSolver:
         self._clock("dt")
         if not (dt_crit > 1e-6 * self._dt_crit0 and math.isfinite(dt_crit)):
             message = self._collapse_message(dt_local, dt_crit)
-            np.copyto(self.mesh.geometry.x, self._x_old)
+            np.copyto(self.x, self._x_old)
             raise InstabilityError(message)
         if dt_crit < num.min_time_step_fraction * self.dt_reference:
             message = self._fall_message(dt_crit)
-            np.copyto(self.mesh.geometry.x, self._x_old)  # the state of the last accepted step
+            np.copyto(self.x, self._x_old)  # the state of the last accepted step
             raise InstabilityError(message)
         return dt_crit
 
@@ -360,7 +361,7 @@ class ExplicitSolver:
         """This rank's smallest stable Δt of the current configuration; −(c + 1) if active cell c
         has collapsed or inverted (see :func:`kernels.stable_dt`)."""
         num = self.numerics
-        return kernels.stable_dt(self.mesh.geometry.x, self._active_nodes, self._active_orientation,
+        return kernels.stable_dt(self.x, self._active_nodes, self._active_orientation,
                                  self.q.cells.arrays, self.material.wave_modulus, num.bulk_viscosity,
                                  num.mass_scaling, kernels.HOOP)
 
@@ -386,7 +387,7 @@ class ExplicitSolver:
 
     def _reject(self, dt_crit: float) -> None:
         """Undo the trial step (x, v of t_n) and retry with the Δt the new configuration allows."""
-        np.copyto(self.mesh.geometry.x, self._x_old)
+        np.copyto(self.x, self._x_old)
         np.copyto(self.nodes.v, self.nodes.v_old)
         self.dt = self.numerics.time_step_scale * dt_crit
         self.rejected += 1
@@ -400,7 +401,7 @@ class ExplicitSolver:
         w_hg, vec = 0.0, self._fvec_new
         if num.hourglass_control:  # Q of the hourglass modes from v^{n+½} on x^{n+1}, and their forces
             vec.array[:] = 0.0
-            w_hg = kernels.hourglass_update(self.mesh.geometry.x, self.nodes.v, self.node_dof, self._active_tensor,
+            w_hg = kernels.hourglass_update(self.x, self.nodes.v, self.node_dof, self._active_tensor,
                                             (q.cells.rho, q.new.sig), self._hourglass_law, dt,
                                             (self._hourglass_stored(q.now), self._hourglass_stored(q.new),
                                              q.hourglass_viscous, vec.array.reshape(-1, 2)))
@@ -465,7 +466,7 @@ class ExplicitSolver:
         if hourglass:
             vec.array[:] = 0.0
             if self.numerics.hourglass_control:
-                kernels.hourglass_force(self.mesh.geometry.x, self.node_dof, self._active_tensor,
+                kernels.hourglass_force(self.x, self.node_dof, self._active_tensor,
                                         (self._hourglass_stored(self.q.now), self.q.hourglass_viscous),
                                         vec.array.reshape(-1, 2))
         fem.assemble_vector(vec.array, self.force_form, constants=np.zeros(0), coeffs=self._coeffs)

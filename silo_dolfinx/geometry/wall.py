@@ -161,6 +161,11 @@ class Wall:
         tan = np.column_stack((-nrm[:, 1], nrm[:, 0]))
         return Projection(d, q, nrm, tan, s, piece)
 
+    def project_into(self, points: np.ndarray, out: tuple) -> None:
+        """:meth:`project` without allocating (the contact of every step): ``points`` (n, 2)
+        contiguous, out = (distance (n,), closest (n, 2), normal (n, 2), s (n,), piece (n,) int64)."""
+        _project(points, self._kind, self._geo, self._s0, self._n_end, *out)
+
     @property
     def arrays(self) -> tuple:
         """(kind, geo, s0, n_end, length): the wall for numba kernels such as :func:`slide`."""

@@ -107,7 +107,8 @@ def main(argv=None) -> int:
             dp, dm = rank_difference(out, other) if other.is_dir() else (np.nan, np.nan)
             rows.append((name, h, wall, dp, dm))
     if comm.rank == 0:
-        print(f"\nHard cases, long ({args.cone} cone, {comm.size} rank(s){'; ' + ' '.join(args.set) if args.set else ''}; bars: energy < 1 %, mass < 0.5 %, "
+        variant = "; " + " ".join(args.set) if args.set else ""
+        print(f"\nHard cases, long ({args.cone} cone, {comm.size} rank(s){variant}; bars: energy < 1 %, mass < 0.5 %, "
               "min scaled Jacobian > 0.2, p_n < 3 ρgH)\n")
         print("| case | status | t (s) | energy err. max | mass err. max | min scaled Jacobian | p_n max / ρgH "
               "| discharged | steps | steps/s | Δt min (s) | 1 vs 2 ranks: p_n store | discharged |")

@@ -30,22 +30,30 @@ PHASES = ("update", "strain", "constitutive", "dt", "assembly")
 SIZES = {"8k": 0.024, "32k": 0.012}  # element sizes of the ch. 4 hopper giving ~8.4k / ~33k cells
 
 
-def measure(element_size: float, blocks: int, steps: int, integration: str = "full") -> dict:
+def k0_hopper(element_size: float, integration: str = "full"):
+    """The ch. 4 hopper at ``element_size`` (structured: the meshes SIZES were chosen for),
+    every cell active, in its K0 state under full gravity: the model the step is timed on."""
     from mpi4py import MPI
 
     from silo_dolfinx.geometry.mesher import mesh_scene
     from silo_dolfinx.scene import load_scene
     from silo_dolfinx.simulation import SiloModel
 
-    comm = MPI.COMM_WORLD
     here = Path(__file__).resolve().parents[1]
     scene = load_scene(here / "demos" / "scenes" / "hopper_ch4.toml",
-                       [f"geometry.element_size={element_size}", "fill.method=\"k0\"",
-                        "geometry.mesh=\"structured\"", f"numerics.integration=\"{integration}\""])  # the meshes these sizes were chosen for
-    model = SiloModel(scene, mesh_scene(scene, comm))
-    s = model.solver
-    model.activate(np.arange(s.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
+                       [f"geometry.element_size={element_size}", 'fill.method="k0"', 'geometry.mesh="structured"',
+                        f'numerics.integration="{integration}"'])
+    model = SiloModel(scene, mesh_scene(scene, MPI.COMM_WORLD))
+    model.activate(np.arange(model.solver.n_cells_owned, dtype=np.int32), None, 0.0, 0.0, last=True)
     model.set_geostatic_stress(0.4)
+    return model
+
+
+def measure(element_size: float, blocks: int, steps: int, integration: str = "full") -> dict:
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    s = k0_hopper(element_size, integration).solver
     for _ in range(steps):  # warm-up
         s.step()
     cells = comm.allreduce(s.n_cells_owned, op=MPI.SUM)
@@ -121,7 +129,8 @@ def main():
         return
     mpirun = Path(sys.executable).with_name("mpirun")
     cmd = [str(mpirun) if mpirun.exists() else "mpirun", "-n", "2", sys.executable, __file__, "--worker",
-           "--blocks", str(args.blocks), "--steps", str(args.steps), "--sizes", *args.sizes, "--integrations", *args.integrations]
+           "--blocks", str(args.blocks), "--steps", str(args.steps), "--sizes", *args.sizes,
+           "--integrations", *args.integrations]
     out = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy(), check=True).stdout
     results += json.loads(next(line for line in out.splitlines() if line.startswith("JSON"))[4:])
 

@@ -351,6 +351,18 @@ def _hourglass_shape(x, cn, c):
     return g0, g1, g2, g3, abs(det), bb, 0.25 * (r0 + r1 + r2 + r3)
 
 
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _add_hourglass_force(f, dofs, gamma, i, Q):
+    """f[dof_a, i] += Q γ_a over the cell's four nodes."""
+    for a in range(4):
+        f[dofs[a], i] += Q * gamma[a]
+
+
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _cell_dofs(node_dof, cn, c):
+    return node_dof[cn[c, 0]], node_dof[cn[c, 1]], node_dof[cn[c, 2]], node_dof[cn[c, 3]]
+
+
 @numba.njit(cache=True, fastmath=FAST)
 def hourglass_update(x, v, node_dof, cn, cell, law, dt, forces):
     """Generalised hourglass forces of the step, forces = (Q_s^n, Q_s^{n+1}, Q_v, f): Q_s
@@ -370,7 +382,7 @@ def hourglass_update(x, v, node_dof, cn, cell, law, dt, forces):
     w = 0.0
     for c in range(cn.shape[0]):
         g0, g1, g2, g3, area, bb, rc = _hourglass_shape(x, cn, c)
-        d0, d1, d2, d3 = node_dof[cn[c, 0]], node_dof[cn[c, 1]], node_dof[cn[c, 2]], node_dof[cn[c, 3]]
+        d0, d1, d2, d3 = _cell_dofs(node_dof, cn, c)
         ring = TWO_PI * rc
         cs = ks * modulus * area * bb * 0.5 * ring
         cv = kv * rho_cell[c] * math.sqrt(modulus / rho_cell[c]) * area * math.sqrt(0.5 * bb) * ring
@@ -383,11 +395,7 @@ def hourglass_update(x, v, node_dof, cn, cell, law, dt, forces):
             qs_new[c, i] = min(max(qs_old[c, i] + cs * qd * dt, -cap), cap)
             qv[c, i] = cv * qd
             w += (0.5 * (qs_old[c, i] + qs_new[c, i]) + qv[c, i]) * qd * dt
-            Q = qs_new[c, i] + qv[c, i]
-            f[d0, i] += Q * g0
-            f[d1, i] += Q * g1
-            f[d2, i] += Q * g2
-            f[d3, i] += Q * g3
+            _add_hourglass_force(f, (d0, d1, d2, d3), (g0, g1, g2, g3), i, qs_new[c, i] + qv[c, i])
     return w
 
 
@@ -398,11 +406,6 @@ def hourglass_force(x, node_dof, cn, q_hourglass, f):
     internal force ``f`` (n_dofs, 2; owned and ghost rows, before the ghost accumulation)."""
     qs, qv = q_hourglass
     for c in range(cn.shape[0]):
-        g0, g1, g2, g3, area, bb, rc = _hourglass_shape(x, cn, c)
-        d0, d1, d2, d3 = node_dof[cn[c, 0]], node_dof[cn[c, 1]], node_dof[cn[c, 2]], node_dof[cn[c, 3]]
+        g0, g1, g2, g3, _, _, _ = _hourglass_shape(x, cn, c)
         for i in range(2):
-            Q = qs[c, i] + qv[c, i]
-            f[d0, i] += Q * g0
-            f[d1, i] += Q * g1
-            f[d2, i] += Q * g2
-            f[d3, i] += Q * g3
+            _add_hourglass_force(f, _cell_dofs(node_dof, cn, c), (g0, g1, g2, g3), i, qs[c, i] + qv[c, i])

@@ -127,8 +127,9 @@ class ExplicitSolver:
         self.nq = self.forms.nq
         # the quadrature fields: the law's declared state, and the stored hourglass force
         self._hourglass_law = (material.wave_modulus, *map(float, self.numerics.hourglass), *material.strength)
+        self._hourglass_on = self.numerics.hourglass_control  # (asked every step: kept, not re-derived)
         self.point_fields = dict(material.state_fields)
-        if self.numerics.hourglass_control and self.numerics.hourglass[0] > 0.0:
+        if self._hourglass_on and self.numerics.hourglass[0] > 0.0:
             self.point_fields["hourglass"] = 2
         self.n_cells_owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self._number_nodes(mesh)
@@ -399,14 +400,14 @@ class ExplicitSolver:
         w_int, w_visc = kernels.closure(q.force_in(q.sig_rot, q.new), q.cells.arrays, num.bulk_viscosity, num.bbar,
                                         q.packed)
         w_hg, vec = 0.0, self._fvec_new
-        if num.hourglass_control:  # Q of the hourglass modes from v^{n+½} on x^{n+1}, and their forces
+        if self._hourglass_on:  # Q of the hourglass modes from v^{n+½} on x^{n+1}, and their forces
             vec.array[:] = 0.0
             w_hg = kernels.hourglass_update(self.x, self.nodes.v, self.node_dof, self._active_tensor,
                                             (q.cells.rho, q.new.sig), self._hourglass_law, dt,
                                             (self._hourglass_stored(q.now), self._hourglass_stored(q.new),
                                              q.hourglass_viscous, vec.array.reshape(-1, 2)))
         if not self.defer_force:
-            self._assemble_internal_force(vec, hourglass=not num.hourglass_control)
+            self._assemble_internal_force(vec, hourglass=not self._hourglass_on)
         self._clock("assembly")
         return w_int, w_visc, w_hg
 
@@ -465,7 +466,7 @@ class ExplicitSolver:
 
         if hourglass:
             vec.array[:] = 0.0
-            if self.numerics.hourglass_control:
+            if self._hourglass_on:
                 kernels.hourglass_force(self.x, self.node_dof, self._active_tensor,
                                         (self._hourglass_stored(self.q.now), self.q.hourglass_viscous),
                                         vec.array.reshape(-1, 2))

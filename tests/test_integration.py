@@ -95,7 +95,8 @@ def test_hourglass_control_passes_the_patch_test():
     qs_new, qv = np.zeros((1, 2)), np.zeros((1, 2))
     cell = (np.array([1000.0]), np.zeros((1, 4)))
     f = np.zeros((4, 2))
-    w = kernels.hourglass_update(x, v, nd, cn, cell, (1e6, 0.1, 0.1, -1.0, 0.0), 1e-3, (np.zeros((1, 2)), qs_new, qv, f))
+    w = kernels.hourglass_update(x, v, nd, cn, cell, (1e6, 0.1, 0.1, -1.0, 0.0), 1e-3,
+                                 (np.zeros((1, 2)), qs_new, qv, f))
     assert np.abs(qs_new).max() < 1e-9 and np.abs(qv).max() < 1e-9 and abs(w) < 1e-15 and np.abs(f).max() < 1e-9
 
 

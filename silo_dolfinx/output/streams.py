@@ -115,7 +115,8 @@ class EnergyHistory:
         e = s.global_energy()
         self.max_abs_balance = max(self.max_abs_balance, abs(e.balance))
         self.csv.write([s.t, stage, e.kinetic, e.elastic, e.plastic, e.viscous, e.damping, e.remap, e.outflow,
-                        e.initial, e.hourglass, e.gravity, e.external, e.contact, e.balance, e.relative_error(s.energy_scale)])
+                        e.initial, e.hourglass, e.gravity, e.external, e.contact, e.balance,
+                        e.relative_error(s.energy_scale)])
 
 
 class WallHistory:

@@ -43,6 +43,37 @@ def deviator_q_p(t0, t1, t2, t3):
     return d0, d1, d2, q, -m
 
 
+@numba.njit(cache=True, inline="always")
+def principal(s0, s1, s2, s3):
+    """Principal stresses a ≥ b ≥ k of an axisymmetric stress (rr, zz, θθ, rz) and what
+    :func:`from_principal` needs to rebuild the components on the same axes: cos 2θ, sin 2θ of
+    the in-plane axes and where the hoop stress (itself principal) went: 0 → k, 1 → b, 2 → a."""
+    c = 0.5 * (s0 + s1)
+    h = 0.5 * (s0 - s1)
+    r = math.sqrt(h * h + s3 * s3)
+    cs, sn = (h / r, s3 / r) if r > 0.0 else (1.0, 0.0)
+    v0, v1 = c + r, c - r  # in plane, v0 ≥ v1
+    if s2 <= v1:
+        return v0, v1, s2, cs, sn, 0
+    if s2 <= v0:
+        return v0, s2, v1, cs, sn, 1
+    return s2, v0, v1, cs, sn, 2
+
+
+@numba.njit(cache=True, inline="always")
+def from_principal(a, b, k, cs, sn, hoop):
+    """The components (rr, zz, θθ, rz) of principal values a, b, k on the axes
+    :func:`principal` returned (``hoop``: which of them is θθ)."""
+    if hoop == 0:
+        w0, w1, w2 = a, b, k
+    elif hoop == 1:
+        w0, w2, w1 = a, b, k
+    else:
+        w2, w0, w1 = a, b, k
+    cn, rn = 0.5 * (w0 + w1), 0.5 * (w0 - w1)
+    return cn + rn * cs, cn - rn * cs, w2, rn * sn
+
+
 STRESS_FREE = 1e-3  # a mean pressure below this × ρ g H: the solid is all but stress-free
 
 

@@ -351,8 +351,9 @@ class ExplicitSolver:
                    "falls). Over an outlet this is an arch - the solid above holds while the outlet drains the "
                    "cells below it; a cone matched in compression (material.cone, docs/material.md) carries "
                    "equal-biaxial compression with no cohesion once φ > 36.87°, and is much stronger in extension "
-                   "than a Mohr-Coulomb solid, so such arches hold. Fix: material.cone = \"extension\" for a "
-                   "discharge, a wider outlet, or (to run on regardless) a smaller min_time_step_fraction.")
+                   "than a Mohr-Coulomb solid, so such arches hold. Fix: material.model = \"mohr_coulomb\" (φ at "
+                   "every Lode angle) or material.cone = \"extension\" for a discharge, a wider outlet, or (to "
+                   "run on regardless) a smaller min_time_step_fraction.")
         else:
             why = (f"It has not emptied: a cell is being crushed or distorted: {self._distortion_hint()} (Or lower "
                    "min_time_step_fraction to run on.)")

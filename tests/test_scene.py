@@ -161,6 +161,24 @@ def test_friction_angles_are_mohr_coulomb_by_default():
     assert load_scene(scene_dict(HOPPER, material={**DP, "model": "elastic"})).cone is None
 
 
+def test_mohr_coulomb_model_takes_the_angles_as_they_are():
+    """model = "mohr_coulomb": φ, ψ are the pyramid's own angles (no cone key; a given cone is
+    reported as unused); φ beyond 60° and ψ > φ are refused naming the key; the law built is
+    the Mohr-Coulomb one with those angles, and the resolved line names both corner cones."""
+    from silo_dolfinx.materials import MohrCoulomb, make_material
+
+    mc = {k: v for k, v in DP.items() if k != "cone"} | {"model": "mohr_coulomb"}
+    s = load_scene(scene_dict(HOPPER, material=mc))
+    assert "cone" not in s.material and s.cone["cone"] is None
+    law = make_material(s.material)
+    assert isinstance(law, MohrCoulomb) and (law.friction_angle, law.dilation_angle) == (30.0, 10.0)
+    assert "50.19° and 40.60°" in s.to_toml().splitlines()[0]
+    assert_names(refused(scene_dict(HOPPER, material={**mc, "friction_angle": 65.0})), "material.friction_angle",
+                 "(0, 60]")
+    assert_names(refused(scene_dict(HOPPER, material={**mc, "dilation_angle": 40.0})), "material.dilation_angle",
+                 "exceeds friction_angle")
+
+
 def test_hopper_half_angle_out_of_range():
     g = {"shape": "bin_hopper", "radius": 0.35, "bin_height": 4.0, "hopper_half_angle": 90.0, "outlet_radius": 0.05}
     assert_names(refused(scene_dict(g)), "geometry.hopper_half_angle", "(0, 90)")

@@ -7,15 +7,19 @@ own module and is compiled with numba.
 from silo_dolfinx.materials.base import Material
 from silo_dolfinx.materials.drucker_prager import DruckerPrager
 from silo_dolfinx.materials.elastic import Elastic
+from silo_dolfinx.materials.mohr_coulomb import MohrCoulomb
 from silo_dolfinx.materials.non_coaxial import NonCoaxial
 from silo_dolfinx.theory import drucker_prager_cone
 
 
 def make_material(m) -> Material:
-    """The material of a resolved [material] section; its Mohr-Coulomb angles become the
-    Drucker-Prager slopes by ``m["cone"]`` (:func:`silo_dolfinx.theory.drucker_prager_cone`)."""
+    """The material of a resolved [material] section; for the cone laws its Mohr-Coulomb angles
+    become the Drucker-Prager slopes by ``m["cone"]`` (:func:`silo_dolfinx.theory.drucker_prager_cone`)."""
     if m["model"] == "elastic":
         return Elastic(m["youngs_modulus"], m["poisson_ratio"], m["density"])
+    if m["model"] == "mohr_coulomb":  # φ, ψ are its own angles: nothing to map
+        return MohrCoulomb(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
+                           m["dilation_angle"], m["cohesion"], m["max_dilation"])
     beta, psi = drucker_prager_cone(m["friction_angle"], m["dilation_angle"], m["cone"])
     if m["model"] == "drucker_prager":
         return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], beta, psi, m["cohesion"],
@@ -26,4 +30,4 @@ def make_material(m) -> Material:
     raise ValueError(f"[material] model = {m['model']!r}: unknown")  # the scene schema prevents this
 
 
-__all__ = ["DruckerPrager", "Elastic", "Material", "NonCoaxial", "make_material"]
+__all__ = ["DruckerPrager", "Elastic", "Material", "MohrCoulomb", "NonCoaxial", "make_material"]

@@ -13,6 +13,7 @@ p = −tr σ/3 is positive in compression, as in the thesis.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 
 import numba
@@ -21,7 +22,7 @@ import numpy as np
 from silo_dolfinx.invariants import invariants, mean_j2
 from silo_dolfinx.kernels import FAST
 
-__all__ = ["Material", "elastic_trial", "invariants"]  # invariants: silo_dolfinx.invariants
+__all__ = ["Material", "elastic_trial", "equivalent_strain", "invariants", "plastic_strain_and_work"]  # invariants: silo_dolfinx.invariants
 
 
 class Material(ABC):
@@ -114,6 +115,33 @@ def _energy_mean_and_difference(a, b, dV, K, G, out, of_difference):
 def _elastic_density(sig, K, G, out):
     for i in range(sig.shape[0]):
         out[i] = _density(sig[i], K, G)
+
+
+@numba.njit(cache=True, inline="always")
+def plastic_strain_and_work(old, trial, new, c, G):
+    """The plastic strain a return made, Δε_p = C⁻¹(σ_trial − σ_new) (engineering shear), and
+    (σ_old + σ_new) : Δε_p - twice its dissipation at the step's mid-point stress, the partner
+    of the trapezoidal internal work ½(σ_n + σ_n+1) : Δε (σ_new : Δε_p would leave a first-order
+    gap in the energy balance). ``old`` a stress row, ``trial`` and ``new`` 4-tuples; c = λ/(3λ +
+    2G). Returns (that product, the four components)."""
+    o0, o1, o2, o3 = old[0], old[1], old[2], old[3]
+    t0, t1, t2, t3 = trial
+    s0, s1, s2, s3 = new
+    r0, r1, r2, r3 = t0 - s0, t1 - s1, t2 - s2, t3 - s3
+    rt = r0 + r1 + r2
+    two_g = 2.0 * G
+    p0 = (r0 - c * rt) / two_g
+    p1 = (r1 - c * rt) / two_g
+    p2 = (r2 - c * rt) / two_g
+    p3 = r3 / G
+    return (o0 + s0) * p0 + (o1 + s1) * p1 + (o2 + s2) * p2 + (o3 + s3) * p3, p0, p1, p2, p3
+
+
+@numba.njit(cache=True, inline="always")
+def equivalent_strain(p0, p1, p2, p3):
+    """√(2/3 e:e) of a strain increment (rr, zz, θθ, rz; engineering shear), e its deviator."""
+    pm = (p0 + p1 + p2) * (1.0 / 3.0)
+    return math.sqrt(2.0 / 3.0 * ((p0 - pm) ** 2 + (p1 - pm) ** 2 + (p2 - pm) ** 2 + 0.5 * p3 * p3))
 
 
 @numba.njit(cache=True)

@@ -36,8 +36,8 @@ import math
 import numba
 import numpy as np
 
-from silo_dolfinx.invariants import deviator_q_p, invariants
-from silo_dolfinx.materials.base import Material
+from silo_dolfinx.invariants import deviator_q_p, from_principal, invariants, principal
+from silo_dolfinx.materials.base import Material, equivalent_strain, plastic_strain_and_work
 
 
 class DruckerPrager(Material):
@@ -92,12 +92,7 @@ def _trial_yield(t0, t1, t2, t3, tanb, d):
 def _principal_cap(s0, s1, s2, s3, T, lam, two_g):
     """Rankine return of an axisymmetric stress (rr, zz, θθ, rz) to σ_i ≤ T (tension +) with
     associated flow in principal space; returns the new components."""
-    c = 0.5 * (s0 + s1)
-    h = 0.5 * (s0 - s1)
-    r = math.sqrt(h * h + s3 * s3)
-    cs, sn = (h / r, s3 / r) if r > 0.0 else (1.0, 0.0)  # cos 2θ, sin 2θ of the in-plane axes
-    v0, v1, v2 = c + r, c - r, s2  # principal values; v0 ≥ v1
-    a, b, k = (v0, v1, v2) if v2 <= v1 else ((v0, v2, v1) if v2 <= v0 else (v2, v0, v1))  # a ≥ b ≥ k
+    a, b, k, cs, sn, hoop = principal(s0, s1, s2, s3)  # a ≥ b ≥ k
     e = lam + two_g
     da = a - T
     x_a, x_b = da / e, 0.0
@@ -110,15 +105,7 @@ def _principal_cap(s0, s1, s2, s3, T, lam, two_g):
     k_n = k - lam * (x_a + x_b)
     if k_n > T:  # all three: the apex
         a_n = b_n = k_n = T
-    # back to the components (same principal axes)
-    if v2 <= v1:
-        w0, w1, w2 = a_n, b_n, k_n
-    elif v2 <= v0:
-        w0, w2, w1 = a_n, b_n, k_n
-    else:
-        w2, w0, w1 = a_n, b_n, k_n
-    cn, rn = 0.5 * (w0 + w1), 0.5 * (w0 - w1)
-    return cn + rn * cs, cn - rn * cs, w2, rn * sn
+    return from_principal(a_n, b_n, k_n, cs, sn, hoop)  # same principal axes
 
 
 @numba.njit(cache=True, inline="always")
@@ -172,13 +159,9 @@ def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
                 t3 -= c_nc * (de3 - proj * s3)
                 d0, d1, d2, q, p, f = _trial_yield(t0, t1, t2, t3, tanb, d)
                 if f <= 0.0 and not (cutoff and _max_principal(t0, t1, t2, t3) > T):
-                    s0n, s1n, s2n, s3n = t0, t1, t2, t3
-                    sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0n, s1n, s2n, s3n
-                    r0, r1, r2, r3 = e0t - s0n, e1t - s1n, e2t - s2n, e3t - s3n
-                    rt = r0 + r1 + r2
-                    m0, m1, m2, m3 = sig[i, 0] + s0n, sig[i, 1] + s1n, sig[i, 2] + s2n, sig[i, 3] + s3n  # 2 σ_mid
-                    diss += 0.5 * dV[i] * ((m0 * (r0 - c * rt) + m1 * (r1 - c * rt) + m2 * (r2 - c * rt)) / two_g
-                                           + m3 * r3 / G)
+                    sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = t0, t1, t2, t3
+                    w2 = plastic_strain_and_work(sig[i], (e0t, e1t, e2t, e3t), (t0, t1, t2, t3), c, G)[0]
+                    diss += 0.5 * dV[i] * w2
                     eqps_new[i] = eqps[i]
                     continue
         tanpsi = tanpsi0 if eqps[i] < eqps_c else 0.0
@@ -198,19 +181,11 @@ def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
             s0, s1, s2, s3 = _principal_cap(s0, s1, s2, s3, T, lam, two_g)
         sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0, s1, s2, s3
         # plastic strain Δε_p = C⁻¹ (σ_trial,elastic − σ_new) (coaxial + non-coaxial) and its
-        # dissipation σ_mid : Δε_p, σ_mid the mean of the step's start (rotated) and end stress:
-        # the partner of the trapezoidal internal work ½(σ_n + σ_n+1) : Δε, so that work = Δ(elastic
-        # energy) + dissipation holds to second order in Δt (σ_new : Δε_p leaves a first-order gap,
-        # 1.8 % of the work in a discharge on the compression-matched cone at time_step_scale 0.8)
-        r0, r1, r2, r3 = e0t - s0, e1t - s1, e2t - s2, e3t - s3
-        rt = r0 + r1 + r2
-        p0 = (r0 - c * rt) / two_g
-        p1 = (r1 - c * rt) / two_g
-        p2 = (r2 - c * rt) / two_g
-        p3 = r3 / G
-        diss += 0.5 * dV[i] * ((sig[i, 0] + s0) * p0 + (sig[i, 1] + s1) * p1 + (sig[i, 2] + s2) * p2 + (sig[i, 3] + s3) * p3)
+        # dissipation σ_mid : Δε_p, so that work = Δ(elastic energy) + dissipation holds to second
+        # order in Δt (σ_new : Δε_p left 1.8 % of the work in a discharge on the compression-
+        # matched cone at time_step_scale 0.8)
+        w2, p0, p1, p2, p3 = plastic_strain_and_work(sig[i], (e0t, e1t, e2t, e3t), (s0, s1, s2, s3), c, G)
+        diss += 0.5 * dV[i] * w2
         if apex:
-            pm = (p0 + p1 + p2) * (1.0 / 3.0)
-            eqps_new[i] = eqps[i] + math.sqrt(2.0 / 3.0 * ((p0 - pm) ** 2 + (p1 - pm) ** 2 + (p2 - pm) ** 2
-                                                           + 0.5 * p3 * p3))
+            eqps_new[i] = eqps[i] + equivalent_strain(p0, p1, p2, p3)
     return diss

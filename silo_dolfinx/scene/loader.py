@@ -95,9 +95,10 @@ class Scene:
             return None
         from silo_dolfinx.theory import drucker_prager_cone, mohr_coulomb_angle
 
-        beta, psi_dp = drucker_prager_cone(m.friction_angle, m.dilation_angle, m.cone)
-        phi = m.friction_angle if m.cone != "beta" else mohr_coulomb_angle(beta, "compression")
-        return {"cone": m.cone, "friction_angle": m.friction_angle, "dilation_angle": m.dilation_angle,
+        cone = m.get("cone", "compression")  # mohr_coulomb: the cone through its compression corners
+        beta, psi_dp = drucker_prager_cone(m.friction_angle, m.dilation_angle, cone)
+        phi = m.friction_angle if cone != "beta" else mohr_coulomb_angle(beta, "compression")
+        return {"cone": m.get("cone"), "friction_angle": m.friction_angle, "dilation_angle": m.dilation_angle,
                 "beta": beta, "psi_dp": psi_dp, "phi_mohr_coulomb": phi}
 
     def cone_text(self) -> str:
@@ -105,6 +106,14 @@ class Scene:
         c = self.cone
         if c is None:
             return "elastic solid: no friction angle"
+        if c["cone"] is None:
+            from silo_dolfinx.theory import drucker_prager_cone
+
+            beta_e = drucker_prager_cone(c["friction_angle"], 0.0, "extension")[0]
+            return (f"Mohr-Coulomb friction_angle φ = {c['friction_angle']:g}°, dilation_angle ψ = "
+                    f"{c['dilation_angle']:g}° on Mohr-Coulomb's pyramid (model = \"mohr_coulomb\": no cone; "
+                    f"the Drucker-Prager cones through its compression and extension corners have β = "
+                    f"{c['beta']:.2f}° and {beta_e:.2f}°)")
         if c["cone"] == "beta":
             return (f"friction_angle {c['beta']:g}° and dilation_angle {c['psi_dp']:g}° are the Drucker-Prager "
                     f"slopes β, ψ (cone = \"beta\"); in axisymmetric compression β is Mohr-Coulomb φ = "
@@ -473,7 +482,7 @@ def _cone_checks(m: dict[str, Any]) -> list[Problem]:
         return []
     from silo_dolfinx.theory import drucker_prager_cone
 
-    phi, psi, cone = m["friction_angle"], m["dilation_angle"], m["cone"]
+    phi, psi, cone = m["friction_angle"], m["dilation_angle"], m.get("cone")
     if psi > phi:
         return [Problem("material", "dilation_angle", f"= {_fmt(psi)} exceeds friction_angle = {_fmt(phi)}: "
                         "dilation may not exceed friction (that would create energy). Fix: dilation_angle "
@@ -482,6 +491,8 @@ def _cone_checks(m: dict[str, Any]) -> list[Problem]:
         return [Problem("material", "friction_angle", f"= {_fmt(phi)}° with cone = {cone!r}: a Mohr-Coulomb "
                         f"angle must be in (0, {PHI_MAX:g}]°. Fix: e.g. `friction_angle = 30`, or cone = "
                         "\"beta\" if the angle is a Drucker-Prager slope.")]
+    if cone is None:  # mohr_coulomb: no cone to map to (φ's range is the schema's)
+        return []
     beta, _ = drucker_prager_cone(phi, psi, cone)
     if beta >= BETA_MAX:
         return [Problem("material", "friction_angle", f"= {_fmt(phi)}° maps to the Drucker-Prager slope β = "

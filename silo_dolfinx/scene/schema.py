@@ -207,9 +207,12 @@ MATERIAL = Section(
     "54.81°, 40° → 58.57°), ψ by the same rule; `cone = \"beta\"` reads the angles as β, ψ_DP "
     "themselves (the thesis' stated convention). `silo check` prints the β it resolves to.",
     keys=(
-        C("model", ("elastic", "drucker_prager", "non_coaxial"),
+        C("model", ("elastic", "drucker_prager", "non_coaxial", "mohr_coulomb"),
           doc="elastic: linear elastic; drucker_prager: elastic-perfectly plastic, "
-          "non-associated; non_coaxial: Drucker-Prager with a yield-vertex non-coaxial term."),
+          "non-associated, on a cone (`cone`); non_coaxial: Drucker-Prager with a yield-vertex "
+          "non-coaxial term; mohr_coulomb: elastic-perfectly plastic, non-associated, on "
+          "Mohr-Coulomb's own pyramid - φ holds at every Lode angle, so no cone is matched "
+          "(docs/material.md)."),
         F("density", unit="kg/m³", doc="Bulk density (unit weight / g).", **POS, example=1000.0),
         F("youngs_modulus", unit="Pa", doc="Young's modulus (granular solids: 10⁵-10⁸; at most 10¹², diamond's).",
           lo=0.0, hi=1.0e12, lo_open=True, example=5.5e5),
@@ -242,6 +245,16 @@ MATERIAL = Section(
               "thesis' Drucker-Prager: the density near an outlet then keeps falling).", lo=0.0, hi=1.0),
         ),
     },
+)
+MATERIAL.variants["mohr_coulomb"] = (
+    F("friction_angle", unit="deg", doc="φ: Mohr-Coulomb angle of internal friction, in (0, 60]°, "
+      "at every Lode angle (triaxial compression and extension alike).",
+      lo=0.0, hi=60.0, lo_open=True, example=30.0),
+    F("dilation_angle", 0.0, "deg", "ψ: Mohr-Coulomb dilation angle of the plastic potential "
+      "(≤ friction_angle; equal = associated).", lo=0.0, hi=60.0),
+    F("cohesion", 1.0, "Pa", "c: Mohr-Coulomb cohesion; the pyramid's apex is the hydrostatic "
+      "tension c/tan φ, and no principal stress exceeds it.", **NONNEG),
+    *(k for k in MATERIAL.variants["drucker_prager"] if k.name == "max_dilation"),
 )
 MATERIAL.variants["non_coaxial"] = MATERIAL.variants["drucker_prager"] + (
     F("noncoaxial_modulus", unit="Pa", doc="H_nc: modulus of the non-coaxial plastic strain rate "

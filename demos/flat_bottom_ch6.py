@@ -20,6 +20,7 @@
 #     mpirun -n 2 python demos/flat_bottom_ch6.py                  # the thesis' 14,000 cells, 100 s
 #     ... --element-size 0.014 --discharge 100 --reuse             # other meshes, lengths; measure only
 #     ... --cone extension                                          # the cone matched in extension (ch6.md)
+#     ... --model mohr_coulomb --integration reduced                # φ at every Lode angle, one-point cells (ch6.md)
 #
 # Results: `results/flat_bottom_ch6[_quick]/` (with `silo report`), the table in `table.md`.
 
@@ -46,12 +47,16 @@ ap.add_argument("--discharge", type=float, help="discharge duration (s); default
 ap.add_argument("--cone", choices=("compression", "extension", "plane_strain"),
                 help="material.cone (default: the scene's, compression; docs/validation/ch6.md: with it an "
                      "arch holds over the outlet, with extension the silo discharges)")
+ap.add_argument("--model", choices=("drucker_prager", "mohr_coulomb"),
+                help="material.model (default: the scene's, drucker_prager; docs/validation/ch6.md: "
+                     "mohr_coulomb with --integration reduced discharges with φ 35° at every Lode angle)")
+ap.add_argument("--integration", choices=("full", "reduced"), help="numerics.integration (default: the scene's)")
 ap.add_argument("--reuse", action="store_true", help="run nothing: measure the results already there")
 args, _ = ap.parse_known_args()
 h = args.element_size or (0.02 if args.quick else None)
 duration = args.discharge or (10.0 if args.quick else 100.0)
 OUT = Path("results") / ("flat_bottom_ch6" + ("_quick" if args.quick else "") + (f"_h{h:g}" if args.element_size else "")
-                         + (f"_{args.cone}" if args.cone else ""))
+                         + "".join(f"_{v}" for v in (args.cone, args.model, args.integration) if v))
 THESIS_K = 0.38
 STATIONS = np.round(np.arange(0.1, 3.95, 0.1), 2)
 overrides = [f"discharge.duration={duration}", "output.field_interval=1.0",
@@ -60,6 +65,10 @@ if h:
     overrides.append(f"geometry.element_size={h}")
 if args.cone:
     overrides.append(f'material.cone="{args.cone}"')
+if args.model:
+    overrides.append(f'material.model="{args.model}"')
+if args.integration:
+    overrides.append(f'numerics.integration="{args.integration}"')
 if args.quick:
     # the outlet (radius 0.02 m) keeps the thesis' two cells across its radius: with one, an
     # arch of one cell spans it and the flow stops within 2 s (h 0.02, measured: 0.02 kg in 20 s)

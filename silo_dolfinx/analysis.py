@@ -402,12 +402,32 @@ def _fcb_row(r, vz, fraction):
     return float(r[j - 1] + (thresh - a[j - 1]) * (r[j] - r[j - 1]) / (a[j] - a[j - 1]))
 
 
-def effective_transition(z_rows, r_fcb, wall_radius):
+def effective_transition(z_rows, r_fcb, wall_radius, tolerance: float = 0.0):
     """Height where the flow channel boundary meets the wall (the lowest row that flows to the
-    wall, r_fcb = nan or ≥ the wall radius there); nan if none."""
+    wall: r_fcb = nan, or within ``tolerance`` of the wall radius there); nan if none.
+
+    ``tolerance`` (m): the resolution of the boundary - one element. A wall that sticks holds
+    its nodes at v_z = 0, so even a channel that flows right up to the wall has its 0.001
+    boundary inside the last cell before it."""
     z_rows = np.asarray(z_rows, float)
-    reach = np.isnan(r_fcb) | (np.asarray(r_fcb) >= np.asarray(wall_radius) * (1 - 1e-9))
+    reach = np.isnan(r_fcb) | (np.asarray(r_fcb) >= np.asarray(wall_radius) * (1 - 1e-9) - tolerance)
     return float(z_rows[reach].min()) if np.any(reach) else float("nan")
+
+
+def time_averaged_velocity(snapshots) -> tuple[np.ndarray, np.ndarray]:
+    """(node positions of the last, node velocity averaged over all) of field snapshot files
+    (``fields/snapshot_*.npz`` of one run: the same nodes in each). One snapshot of a silo
+    in discharge carries its stress waves - the slowly creeping parts of the section move up
+    and down with them - so a flow-channel boundary drawn from one is ragged; the mean over
+    a few seconds is the flow."""
+    files = list(snapshots)
+    if not files:
+        raise ValueError("time_averaged_velocity: no snapshots")
+    v = None
+    for f in files:
+        vi = np.load(f)["node_velocity"]
+        v = vi.astype(float) if v is None else v + vi
+    return np.asarray(np.load(files[-1])["node_xy"], float), v / len(files)
 
 
 # ---------------------------------------------------------------------------- stress measures

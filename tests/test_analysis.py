@@ -61,6 +61,11 @@ def test_flow_channel_boundary_recovered_exactly():
     assert np.allclose(fcb[lower], (0.05 + 0.3 * zr[lower]) * (1 - 1e-3), rtol=0, atol=1e-12)
     assert np.all(np.isnan(fcb[~lower]))
     assert analysis.effective_transition(zr, fcb, np.full_like(zr, 0.35)) == pytest.approx(zr[~lower].min())
+    # a channel whose boundary lies within one element of the wall meets it
+    near = np.where(lower, fcb, 0.345)
+    assert np.isnan(analysis.effective_transition(zr, near, np.full_like(zr, 0.35)))
+    assert analysis.effective_transition(zr, near, np.full_like(zr, 0.35), tolerance=0.01) == pytest.approx(
+        zr[~lower].min())
     # the same from scattered points
     zr2, fcb2 = analysis.flow_channel_boundary(R.ravel(), Z.ravel(), VZ.ravel(), 1e-3)
     assert np.allclose(fcb2[lower], fcb[lower], atol=1e-12)
@@ -280,3 +285,16 @@ def test_cell_oscillation_sees_a_checkerboard_and_not_a_linear_field():
     inner = inner.ravel()
     assert np.abs(analysis.cell_oscillation(corners, linear)[inner]).max() < 1e-12
     assert np.allclose(np.abs(analysis.cell_oscillation(corners, board)[inner]), 2.0, rtol=1e-12)
+
+
+def test_time_averaged_velocity_of_snapshots(tmp_path):
+    """The mean of the snapshots' node velocities (a wave that reverses averages out), at the
+    last snapshot's node positions."""
+    xy = np.array([[0.0, 0.0], [0.1, 0.0]])
+    files = []
+    for i, vz in enumerate((-1.0, -3.0, -2.0)):
+        f = tmp_path / f"snapshot_{i}.npz"
+        np.savez(f, node_xy=xy + 0.01 * i, node_velocity=np.array([[0.0, vz], [0.5 * (-1) ** i, 0.0]]))
+        files.append(f)
+    pos, v = analysis.time_averaged_velocity(files)
+    assert np.allclose(pos, xy + 0.02) and np.allclose(v, [[0.0, -2.0], [0.5 / 3, 0.0]])

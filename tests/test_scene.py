@@ -46,7 +46,7 @@ def test_every_targets_case_has_a_scene():
               "hopper_ch4_controlled_u0_2", "hopper_ch4_controlled_u0_4", "hopper_ch4_controlled_u0_10",
               "hopper_ch4_controlled_u0_100", "hopper_ch3_lagrangian", "hopper_ch3_ale",
               "column_ch5_FE1", "column_ch5_FE2", "column_ch5_FE3", "column_ch5_FE4", "column_ch5_FE5",
-              "column_ch5_hopper22", "flat_bottom_ch6", "bin_hopper_ch7_abrupt", "bin_hopper_ch7_fillet02",
+              "column_ch5_hopper22", "flat_bottom_ch6", "flat_bottom_ch6_discharge", "bin_hopper_ch7_abrupt", "bin_hopper_ch7_fillet02",
               "bin_hopper_ch7_fillet10", "bin_hopper_ch7_fillet30", "bin_hopper_ch7_dynamic",
               "bin_hopper_ch7_dynamic_2u0", "steep_hopper_ch8_coaxial", "steep_hopper_ch8_noncoaxial"}
     assert wanted <= names, wanted - names

@@ -122,7 +122,7 @@ def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
     naming the cause: without a critical state (max_dilation = 0, ψ > 0) the cone's dilation
     never stops; with one, what remains is tensile separation at the cone's apex (a solid
     stretched at near-zero pressure: the free-fall zone above an outlet, a free-surface
-    crater), which a Drucker-Prager solid never recompacts."""
+    crater), which a perfectly plastic solid without a cap never recompacts."""
     m = scene.material
     rho0 = m.density
     out = []
@@ -135,10 +135,10 @@ def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
                            "for as long as it shears. Set material.max_dilation > 0 (the default 0.05: a critical "
                            "state) or dilation_angle = 0 if the flowing solid should keep its density.")
             else:
-                out.append(head + "the cone's dilation is bounded (max_dilation or ψ = 0), so this is tensile "
-                           "separation at the cone's apex, where the solid is stretched at near-zero pressure (the "
-                           "free-fall zone above an outlet, a free-surface crater); Drucker-Prager does not "
-                           "recompact it. Its stable Δt falls with its density.")
+                out.append(head + "the plastic dilation is bounded (max_dilation or ψ = 0), so this is tensile "
+                           "separation at the yield surface's apex, where the solid is stretched at near-zero "
+                           "pressure (the free-fall zone above an outlet, a free-surface crater); a yield surface "
+                           "without a cap does not recompact it. Its stable Δt falls with its density.")
     return out
 
 

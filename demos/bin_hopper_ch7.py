@@ -73,12 +73,17 @@ ap.add_argument("--element-size", type=float, help="element size (m); default th
 ap.add_argument("--discharge", type=float, help="discharge duration (s); default 20, 4 with --quick")
 ap.add_argument("--cases", nargs="+", choices=sorted(CASES), help="cases to run and measure")
 ap.add_argument("--mesh-study", action="store_true", help="also the abrupt filling on h, h/1.5, h/2 (Fig. 7-8)")
+ap.add_argument("--discharge-solid", choices=("extension", "mohr_coulomb"), default="extension",
+                help="the solid of the discharge cases: the DP cone matched in extension (default) or "
+                     "Mohr-Coulomb's own pyramid (docs/validation/ch7.md: both flow; the scenes' compression "
+                     "cone arches)")
 ap.add_argument("--reuse", action="store_true", help="run nothing: measure the results already there")
 args, _ = ap.parse_known_args()
 h = args.element_size or (0.05 if args.quick else 0.01)
 duration = args.discharge or (4.0 if args.quick else 20.0)
 cases = args.cases or (QUICK if args.quick else tuple(CASES))
-ROOT = Path("results") / ("bin_hopper_ch7" + ("_quick" if args.quick else "") + (f"_h{h:g}" if args.element_size else ""))
+ROOT = Path("results") / ("bin_hopper_ch7" + ("_quick" if args.quick else "") + (f"_h{h:g}" if args.element_size else "")
+                          + ("_mohr_coulomb" if args.discharge_solid == "mohr_coulomb" else ""))
 STATIONS = sorted({0.2, 0.4, 0.6, 0.65, 0.687, 0.72, 0.75, 0.8, 0.9, *np.round(np.arange(1.0, 4.95, 0.2), 2)})
 
 
@@ -89,6 +94,8 @@ def say(*a):
 
 def scene_of(name, element_size=h):
     base, extra, _ = CASES[name]
+    if args.discharge_solid == "mohr_coulomb":
+        extra = [('material.model="mohr_coulomb"' if e == EXT[0] else e) for e in extra]
     sets = [f"geometry.element_size={element_size}", f"discharge.duration={duration}", "output.field_interval=1.0",
             f"output.stations=[{', '.join(f'{z:g}' for z in STATIONS)}]", *extra]
     return load_scene(HERE / f"{base}.toml", sets)

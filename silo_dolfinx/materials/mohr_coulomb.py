@@ -28,8 +28,10 @@ a Δγ with a = 4G + 4(λ + G) sin φ sin ψ per unit Δγ:
 
 ε̄_p is √(2/3 e_p:e_p) of the plastic strain the return made (C⁻¹(σ* − σ)). Critical state:
 with ``max_dilation`` ε_c > 0 a point flows at constant volume (ψ → 0) once ε̄_p reaches
-ε_c / r, r = √3 sin ψ/√(1 + sin² ψ/3) the plastic volume change per ε̄_p on the main plane
-(on an edge the volume change at that ε̄_p differs by < 3 % for ψ ≤ 15°).
+ε_c / r, r = √3 sin ψ/√(1 + sin² ψ/3) the plastic volume change per ε̄_p on a face. A point
+flowing on an edge dilates more per ε̄_p - 2 sin ψ/(1 ∓ sin ψ/3), +23 % on the compression
+edge and +10 % on the extension edge for ψ = 10° - so it stops at up to that much more than ε_c
+(tracking the volume change itself would take a second state field through every remap).
 """
 
 from __future__ import annotations

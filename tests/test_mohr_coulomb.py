@@ -189,3 +189,29 @@ def test_dilation_stops_at_the_critical_state():
             assert eps_c - 1e-12 <= vol_p <= eps_c + 2 * mat.sin_psi * dgam
         else:
             assert vol_p > 3 * eps_c
+
+
+def test_recompaction_closes_the_opening_without_stress():
+    """A cohesionless point at rest pulled apart (volumetric stretch 1e-3) returns to the apex
+    (σ = 0) and opens 1e-3 of volume. Squeezed back by the same amount: with recompaction the
+    opening closes and it stays stress-free (its grains only come back into contact); without,
+    the squeeze is elastic and it carries p = K·1e-3 while keeping the opened volume. A further
+    squeeze beyond the closed opening is elastic in both (p = K·(the excess), exact to 1e-9)."""
+    stretch = np.array([[1e-3 / 3, 1e-3 / 3, 1e-3 / 3, 0.0]])
+    for recompact in (True, False):
+        mat = MohrCoulomb(E, NU, RHO, PHI, PSI, 0.0, 0.05, recompact)
+        st = {k: np.zeros(1) for k in mat.state_fields}
+        sig = np.zeros((1, 4))
+        for de in (stretch, -stretch, -0.5 * stretch):
+            new = {k: np.zeros(1) for k in mat.state_fields}
+            out = np.zeros_like(sig)
+            mat.update(sig, de, st, out, new, np.ones(1))
+            if recompact and de is stretch:
+                assert new["opening"][0] == pytest.approx(1e-3, rel=1e-9) and np.abs(out).max() < 1e-9
+            if de is not stretch and de[0, 0] == -stretch[0, 0]:  # squeezed back by the stretch
+                p = -out[0, :3].mean()
+                assert p == (pytest.approx(0.0, abs=1e-6) if recompact else pytest.approx(mat.K * 1e-3, rel=1e-9))
+            sig, st = out, new
+        p = -sig[0, :3].mean()
+        assert p == pytest.approx(mat.K * (0.5e-3 if recompact else 1.5e-3), rel=1e-9)
+        assert ("opening" in mat.state_fields) == recompact

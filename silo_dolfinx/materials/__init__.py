@@ -19,7 +19,7 @@ def make_material(m) -> Material:
         return Elastic(m["youngs_modulus"], m["poisson_ratio"], m["density"])
     if m["model"] == "mohr_coulomb":  # φ, ψ are its own angles: nothing to map
         return MohrCoulomb(m["youngs_modulus"], m["poisson_ratio"], m["density"], m["friction_angle"],
-                           m["dilation_angle"], m["cohesion"], m["max_dilation"])
+                           m["dilation_angle"], m["cohesion"], m["max_dilation"], m["recompaction"])
     beta, psi = drucker_prager_cone(m["friction_angle"], m["dilation_angle"], m["cone"])
     if m["model"] == "drucker_prager":
         return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], beta, psi, m["cohesion"],

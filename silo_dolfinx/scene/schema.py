@@ -255,6 +255,10 @@ MATERIAL.variants["mohr_coulomb"] = (
     F("cohesion", 1.0, "Pa", "c: Mohr-Coulomb cohesion; the pyramid's apex is the hydrostatic "
       "tension c/tan φ, and no principal stress exceeds it.", **NONNEG),
     *(k for k in MATERIAL.variants["drucker_prager"] if k.name == "max_dilation"),
+    Key("recompaction", "bool", False, doc="true: volume a point opens at the apex (pulled apart, its "
+        "grains out of contact) is closed again without stress by later compression before it carries "
+        "load (state field `opening`); false: the opening is permanent, and a cell that is stretched and "
+        "squeezed in turn ratchets its density down (docs/material.md)."),
 )
 MATERIAL.variants["non_coaxial"] = MATERIAL.variants["drucker_prager"] + (
     F("noncoaxial_modulus", unit="Pa", doc="H_nc: modulus of the non-coaxial plastic strain rate "

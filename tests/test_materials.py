@@ -177,6 +177,25 @@ def test_yield_function_matches_invariants(beta):
     assert abs(mat.yield_function(s)[0] - (q - p * math.tan(math.radians(beta)) - 5.0)) < 1e-9
 
 
+def plastic_volume_in_simple_shear(mat, dgam, n):
+    """The plastic volume change of a point at p = 10 kPa sheared in n increments of engineering
+    shear strain dgam (the stress level held by the yield surface): Σ tr C⁻¹(σ_trial − σ_new)."""
+    sig = np.array([[-1e4, -1e4, -1e4, 0.0]])
+    eqps = np.zeros(1)
+    vol_p = 0.0
+    lam = mat.K - 2 * mat.G / 3
+    c = lam / (3 * lam + 2 * mat.G)
+    for _ in range(n):
+        de = np.array([[0.0, 0.0, 0.0, dgam]])
+        out = np.zeros_like(sig)
+        new = {"eqps": np.zeros(1)}
+        mat.update(sig, de, {"eqps": eqps}, out, new, np.ones(1))
+        ds = trial(mat, sig, de) - out
+        vol_p += float((ds[0, :3] - c * ds[0, :3].sum()).sum() / (2 * mat.G))
+        sig, eqps = out, new["eqps"]
+    return vol_p
+
+
 def test_dilation_stops_at_the_critical_state():
     """With max_dilation ε_c the plastic volume change of a point sheared at constant stress
     level grows as tan ψ · ε̄_p until it reaches ε_c, then stays there (ψ → 0); overshoot at
@@ -184,19 +203,8 @@ def test_dilation_stops_at_the_critical_state():
     eps_c = 0.01
     for cap, expect_stop in ((eps_c, True), (0.0, False)):
         mat = DruckerPrager(E, NU, RHO, 30.0, 10.0, 1.0, max_dilation=cap)
-        sig = np.array([[-1e4, -1e4, -1e4, 0.0]])
-        eqps = np.zeros(1)
-        vol_p = 0.0
-        c = (mat.K - 2 * mat.G / 3) / (3 * (mat.K - 2 * mat.G / 3) + 2 * mat.G)
         dgam = 1e-3
-        for _ in range(600):  # γ = 0.6: ε̄_p ≈ 0.35, tan ψ ε̄_p ≈ 0.06 > ε_c
-            de = np.array([[0.0, 0.0, 0.0, dgam]])
-            out = np.zeros_like(sig)
-            new = {"eqps": np.zeros(1)}
-            mat.update(sig, de, {"eqps": eqps}, out, new, np.ones(1))
-            ds = trial(mat, sig, de) - out
-            vol_p += float((ds[0, :3] - c * ds[0, :3].sum()).sum() / (2 * mat.G))
-            sig, eqps = out, new["eqps"]
+        vol_p = plastic_volume_in_simple_shear(mat, dgam, 600)  # γ = 0.6: ε̄_p ≈ 0.35, tan ψ ε̄_p ≈ 0.06 > ε_c
         step = math.tan(math.radians(10.0)) * dgam  # the most one increment can add
         if expect_stop:
             assert eps_c - 1e-12 <= vol_p <= eps_c + step

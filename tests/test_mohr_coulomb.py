@@ -11,7 +11,7 @@ from scipy.optimize import minimize
 
 from silo_dolfinx import theory
 from silo_dolfinx.materials import MohrCoulomb
-from test_materials import E, NU, RHO, dissipations, random_states, run, trial
+from test_materials import E, NU, RHO, dissipations, plastic_volume_in_simple_shear, random_states, run, trial
 
 PHI, PSI = 35.0, 10.0
 
@@ -171,20 +171,8 @@ def test_dilation_stops_at_the_critical_state():
     eps_c = 0.01
     for cap, expect_stop in ((eps_c, True), (0.0, False)):
         mat = mc(PHI, PSI, max_dilation=cap)
-        sig = np.array([[-1e4, -1e4, -1e4, 0.0]])
-        eqps = np.zeros(1)
-        vol_p = 0.0
-        lam = mat.K - 2 * mat.G / 3
-        c = lam / (3 * lam + 2 * mat.G)
         dgam = 1e-3
-        for _ in range(600):
-            de = np.array([[0.0, 0.0, 0.0, dgam]])
-            out = np.zeros_like(sig)
-            new = {"eqps": np.zeros(1)}
-            mat.update(sig, de, {"eqps": eqps}, out, new, np.ones(1))
-            ds = trial(mat, sig, de) - out
-            vol_p += float((ds[0, :3] - c * ds[0, :3].sum()).sum() / (2 * mat.G))
-            sig, eqps = out, new["eqps"]
+        vol_p = plastic_volume_in_simple_shear(mat, dgam, 600)
         if expect_stop:
             assert eps_c - 1e-12 <= vol_p <= eps_c + 2 * mat.sin_psi * dgam
         else:

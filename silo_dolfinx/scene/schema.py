@@ -262,7 +262,9 @@ MATERIAL.variants["mohr_coulomb"] = (
 )
 MATERIAL.variants["non_coaxial"] = MATERIAL.variants["drucker_prager"] + (
     F("noncoaxial_modulus", unit="Pa", doc="H_nc: modulus of the non-coaxial plastic strain rate "
-      "(1/H_nc)·ṡⁿ (eq. 8-9).", **POS, example=1.0e7),
+      "(1/H_nc)·ṡⁿ (eq. 8-9); at most 10¹² (Young's modulus' bound): far above the shear modulus the "
+      "non-coaxial term vanishes, and drucker_prager is the same law without it.",
+      lo=0.0, hi=1.0e12, lo_open=True, example=1.0e7),
 )
 
 WALL = Section(

@@ -93,6 +93,10 @@ def main(argv: list[str] | None = None) -> int:
     except _user_errors() as e:
         _error(f"error: {e}")
         return 2
+    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM during a run (simulation.RunInterrupted)
+        _error(f"interrupted ({e or 'SIGINT'}): the results folder keeps everything written so far; its summary.json "
+               "says where the run was, and silo run --resume FOLDER continues it from its last checkpoint.")
+        return 130
     except Exception:
         _abort_other_ranks()
         raise

@@ -336,3 +336,53 @@ def test_a_run_killed_mid_discharge_leaves_readable_results_and_resumes_to_the_s
     assert np.allclose(a["p_n"], b["p_n"], rtol=1e-8, atol=0.0)
     differ = [p.name for p in sorted(reference.glob("*.csv")) if p.read_bytes() != (out / p.name).read_bytes()]
     assert not differ, differ
+
+
+@pytest.mark.serial  # starts its own 2-rank job and stops it
+def test_a_run_stopped_by_sigterm_says_interrupted_and_resumes(tmp_path):
+    """SIGTERM (what a batch system's time limit or ``kill`` sends) to mpirun during the
+    discharge, after a checkpoint there: the run ends as Ctrl-C ends it - exit 130, summary.json
+    with status "interrupted", the signal, the time reached (past the checkpoint) and how to
+    resume; every CSV has only complete rows - and ``silo run --resume`` completes it. Before,
+    SIGTERM killed the ranks outright and summary.json said "running"; acted on where it landed,
+    one rank stopped while the other waited in a collective (30 s, then MPI_Abort): the signal
+    now only asks, and the ranks stop together at the next history sample."""
+    import os
+    import signal
+    import time
+
+    from silo_dolfinx.output import read_rows
+
+    scene, sets, _ = CASES["abrupt_rough_sudden"]
+    out = tmp_path / "out"
+    cli = [*mpirun(2), sys.executable, "-m", "silo_dolfinx.cli", "run"]
+    sets = [*SHORT, *sets, "discharge.duration=0.5", "output.checkpoint_interval=0.5"]
+    job = subprocess.Popen([*cli, str(SCENES / f"{scene}.toml"), "--out", str(out), "--progress", "1e9",
+                            *(a for s in sets for a in ("--set", s))],
+                           env=subprocess_env(), start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and job.poll() is None:
+            s = json.loads((out / "summary.json").read_text()) if (out / "summary.json").is_file() else {}
+            if s.get("checkpoint", {}).get("t", 0.0) > 0.25:  # 0.2 s of storage, then 0.05 s of discharge
+                break
+            time.sleep(0.05)
+        assert job.poll() is None, job.stderr.read().decode()[-2000:]
+        job.send_signal(signal.SIGTERM)  # to mpirun, which forwards it to the ranks
+        job.wait(timeout=60)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    assert job.returncode == 130, job.stderr.read().decode()[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted", summary
+    assert "SIGTERM" in summary["error"] and "--resume" in summary["error"]
+    assert summary["t_reached"] >= summary["checkpoint"]["t"] > 0.25
+    for path in sorted(out.glob("*.csv")):
+        text = path.read_text()
+        assert text.endswith("\n"), path.name
+        read_rows(path)
+    subprocess.run([*cli, "--resume", str(out), "--progress", "1e9"], env=subprocess_env(), check=True,
+                   capture_output=True, timeout=300)
+    done = json.loads((out / "summary.json").read_text())
+    assert done["status"] == "completed" and done["resumed"][0]["from_t"] == summary["checkpoint"]["t"]

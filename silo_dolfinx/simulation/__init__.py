@@ -22,7 +22,7 @@ from silo_dolfinx.output import Progress, Results
 from silo_dolfinx.output.streams import Outputs
 from silo_dolfinx.simulation.effects import ramp_velocity, smooth_step
 from silo_dolfinx.simulation.model import SiloModel
-from silo_dolfinx.simulation.stages import run_stages, total_time
+from silo_dolfinx.simulation.stages import interruptible, run_stages, total_time
 from silo_dolfinx.solver import InstabilityError
 
 
@@ -35,7 +35,9 @@ def build_model(scene, comm=None, sm=None) -> SiloModel:
 def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0, resume: bool = False) -> dict:
     """Run a scene into the results folder ``out``; returns the summary (also on disk).
     ``resume``: continue the run in ``out`` from its last checkpoint (``scene`` is then the
-    folder's scene.toml, and the ranks as many as wrote it; :mod:`silo_dolfinx.checkpoint`)."""
+    folder's scene.toml, and the ranks as many as wrote it; :mod:`silo_dolfinx.checkpoint`).
+    Ended by SIGINT or SIGTERM, the run's summary says "interrupted", when and where it was,
+    and its last checkpoint (resumable); the exception is re-raised."""
     comm = MPI.COMM_WORLD if comm is None else comm
     saved = checkpoint.load(out, comm) if resume else None  # refused before anything is touched
     results = Results(out, scene, comm, resume=saved)
@@ -51,11 +53,19 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0, resum
                        ale="on in the discharge" if "ale" in model.effects else "off (Lagrangian)")
         model.outputs = Outputs(model, results)
         checkpoints = Checkpoints(model, results, scene.output.checkpoint_interval, saved)
-        stages = run_stages(model, Progress(comm, total_time(scene), every=progress_every), checkpoints)
-        _finish(model, results, stages)
-        checkpoints.finish()
+        with interruptible():  # armed after build_model: PETSc's initialisation resets SIGTERM to its default
+            stages = run_stages(model, Progress(comm, total_time(scene), every=progress_every), checkpoints)
+            _finish(model, results, stages)
+            checkpoints.finish()
     except InstabilityError as err:
         results.finish("failed", str(err))
+        _all_ranks_or_abort(guard, err)
+        raise
+    except KeyboardInterrupt as err:  # SIGINT or SIGTERM (stages.RunInterrupted), or Ctrl-C outside the loop
+        t = model.solver.t if model is not None else 0.0
+        results.summary["t_reached"] = t
+        results.finish("interrupted", f"{err or 'stopped by SIGINT'} at t = {t:.6g} s (stage "
+                       f"{results.summary.get('stage', '-')}); its last checkpoint resumes it: silo run --resume {out}")
         _all_ranks_or_abort(guard, err)
         raise
     except BaseException as err:

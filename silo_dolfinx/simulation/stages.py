@@ -19,7 +19,10 @@ Discharge (free or controlled)
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -203,11 +206,58 @@ def advance(model, stage: Stage, t_end: float, label: str, progress, checkpoints
         for hook in model.hooks:
             hook.after_step()
         model.outputs.maybe(stage.name)
+        _stop_if_asked(model)
         progress(label, s.t, s.steps, s.dt)
         if stage.stop(model):
             break
         if checkpoints is not None:
             checkpoints.maybe()
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """SIGTERM or SIGINT during the time loop, acted on by every rank at the same step."""
+
+
+_SIGNALS = (signal.SIGTERM, signal.SIGINT)
+_asked: list[str] = []  # the signal that asked the loop to stop, once one has
+
+
+def _ask_to_stop(signum, frame) -> None:
+    _asked.append(signal.Signals(signum).name)
+    signal.signal(signum, signal.SIG_DFL if signum == signal.SIGTERM else signal.default_int_handler)  # a second: at once
+
+
+@contextmanager
+def interruptible():
+    """SIGTERM (a batch system's time limit, ``kill``) and SIGINT (Ctrl-C) only ask the time loop
+    to stop: it stops at the next history sample, on every rank at once (a signal acted on where
+    it lands would leave the other ranks in a collective for ever), by raising
+    :class:`RunInterrupted`. A second signal acts at once. The previous handlers come back after
+    the block. In a thread other than the main one nothing is installed."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _asked.clear()
+    previous = [signal.signal(sig, _ask_to_stop) for sig in _SIGNALS]
+    try:
+        yield
+    finally:
+        for sig, handler in zip(_SIGNALS, previous):
+            signal.signal(sig, handler)
+
+
+def _stop_if_asked(model) -> None:
+    """Raise :class:`RunInterrupted` if a signal asked the run to stop - on one rank at once, on
+    several at a history sample (all ranks reach it at the same step) when any rank was asked."""
+    s = model.solver
+    if s.comm.size == 1:
+        asked = bool(_asked)
+    elif model.outputs.last_sample == s.t:
+        asked = s.comm.allreduce(bool(_asked), op=MPI.LOR)
+    else:
+        return
+    if asked:
+        raise RunInterrupted(f"stopped by {_asked[0] if _asked else 'a signal to another rank'}")
 
 
 def _stage_record(stage: Stage, model, t0: float, steps0: int, wall0: float) -> dict:
@@ -217,5 +267,5 @@ def _stage_record(stage: Stage, model, t0: float, steps0: int, wall0: float) -> 
             "density_min": reduce_scalar(s.comm, float(s.rho_cell.min(initial=np.inf)), MPI.MIN)}
 
 
-__all__ = ["Discharge", "K0Start", "LayerFill", "Stage", "Store", "advance", "compose", "run_stages",
-           "smooth_step", "total_time"]
+__all__ = ["Discharge", "K0Start", "LayerFill", "RunInterrupted", "Stage", "Store", "advance", "compose",
+           "interruptible", "run_stages", "smooth_step", "total_time"]

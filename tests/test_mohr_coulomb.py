@@ -10,7 +10,8 @@ import pytest
 from scipy.optimize import minimize
 
 from silo_dolfinx import theory
-from silo_dolfinx.materials import MohrCoulomb
+from silo_dolfinx.materials import DruckerPrager, MohrCoulomb, NonCoaxial
+from silo_dolfinx.theory import drucker_prager_cone
 from test_materials import E, NU, RHO, dissipations, plastic_volume_in_simple_shear, random_states, run, trial
 
 PHI, PSI = 35.0, 10.0
@@ -179,15 +180,28 @@ def test_dilation_stops_at_the_critical_state():
             assert vol_p > 3 * eps_c
 
 
-def test_recompaction_closes_the_opening_without_stress():
+def _cohesionless(law, recompact):
+    """The law ``law`` for this file's solid, cohesionless, with or without recompaction (the
+    cone laws on the compression-matched cone)."""
+    if law == "mohr_coulomb":
+        return MohrCoulomb(E, NU, RHO, PHI, PSI, 0.0, 0.05, recompact)
+    beta, psi = drucker_prager_cone(PHI, PSI, "compression")
+    if law == "drucker_prager":
+        return DruckerPrager(E, NU, RHO, beta, psi, 0.0, 0.05, recompact)
+    return NonCoaxial(E, NU, RHO, beta, psi, 0.0, 0.3 * E, 0.05, recompact)
+
+
+@pytest.mark.parametrize("law", ["mohr_coulomb", "drucker_prager", "non_coaxial"])
+def test_recompaction_closes_the_opening_without_stress(law):
     """A cohesionless point at rest pulled apart (volumetric stretch 1e-3) returns to the apex
     (σ = 0) and opens 1e-3 of volume. Squeezed back by the same amount: with recompaction the
     opening closes and it stays stress-free (its grains only come back into contact); without,
     the squeeze is elastic and it carries p = K·1e-3 while keeping the opened volume. A further
-    squeeze beyond the closed opening is elastic in both (p = K·(the excess), exact to 1e-9)."""
+    squeeze beyond the closed opening is elastic in both (p = K·(the excess), exact to 1e-9).
+    The same for the pyramid and the cone laws (one helper closes the opening for all)."""
     stretch = np.array([[1e-3 / 3, 1e-3 / 3, 1e-3 / 3, 0.0]])
     for recompact in (True, False):
-        mat = MohrCoulomb(E, NU, RHO, PHI, PSI, 0.0, 0.05, recompact)
+        mat = _cohesionless(law, recompact)
         st = {k: np.zeros(1) for k in mat.state_fields}
         sig = np.zeros((1, 4))
         for de in (stretch, -stretch, -0.5 * stretch):

@@ -23,10 +23,10 @@ def make_material(m) -> Material:
     beta, psi = drucker_prager_cone(m["friction_angle"], m["dilation_angle"], m["cone"])
     if m["model"] == "drucker_prager":
         return DruckerPrager(m["youngs_modulus"], m["poisson_ratio"], m["density"], beta, psi, m["cohesion"],
-                             m["max_dilation"])
+                             m["max_dilation"], m["recompaction"])
     if m["model"] == "non_coaxial":
         return NonCoaxial(m["youngs_modulus"], m["poisson_ratio"], m["density"], beta, psi, m["cohesion"],
-                          m["noncoaxial_modulus"], m["max_dilation"])
+                          m["noncoaxial_modulus"], m["max_dilation"], m["recompaction"])
     raise ValueError(f"[material] model = {m['model']!r}: unknown")  # the scene schema prevents this
 
 

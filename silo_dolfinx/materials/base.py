@@ -29,6 +29,7 @@ class Material(ABC):
     name = "material"
     plastic = False
     state_fields: dict[str, int] = {}
+    recompaction = False  # whether the law keeps the volume opened at its apex (state field "opening")
 
     def __init__(self, youngs_modulus: float, poisson_ratio: float, density: float):
         E, nu = youngs_modulus, poisson_ratio
@@ -51,6 +52,11 @@ class Material(ABC):
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
         """New stress and state from the rotated stress and the strain increment; returns the
         plastic dissipation (J)."""
+
+    def state_pair(self, state) -> tuple[np.ndarray, np.ndarray]:
+        """(ε̄_p, opening) arrays of a state, as the plastic kernels read them (without
+        recompaction the second is ε̄_p's array again, never read or written)."""
+        return state["eqps"], state["opening"] if self.recompaction else state["eqps"]
 
     def elastic_energy(self, sig: np.ndarray, dV: np.ndarray) -> float:
         """Stored elastic energy Σ ½ σ:C⁻¹:σ dV (J)."""
@@ -135,6 +141,31 @@ def plastic_strain_and_work(old, trial, new, c, G):
     p2 = (r2 - c * rt) / two_g
     p3 = r3 / G
     return (o0 + s0) * p0 + (o1 + s1) * p1 + (o2 + s2) * p2 + (o3 + s3) * p3, p0, p1, p2, p3
+
+
+@numba.njit(cache=True, inline="always")
+def close_opening(e0, e1, e2, op):
+    """Recompaction, before the trial: a compressive volume change first closes the opening
+    ``op`` (volume a point opened at its yield surface's apex), without stress - its grains only
+    come back into contact. Returns the strain's normal components left to load the point, their
+    trace, the opening left and the volume closed."""
+    tr = e0 + e1 + e2
+    closing = 0.0
+    if tr < 0.0 and op > 0.0:
+        closing = min(-tr, op)
+        e0 += closing / 3.0
+        e1 += closing / 3.0
+        e2 += closing / 3.0
+        tr += closing
+        op -= closing
+    return e0, e1, e2, tr, op, closing
+
+
+@numba.njit(cache=True, inline="always")
+def closing_work(closing, old, s0, s1, s2):
+    """Twice the work of closing ``closing`` of opening, a plastic compaction −closing/3 I, against
+    the step's mid-point mean stress (the partner of :func:`plastic_strain_and_work`)."""
+    return -closing * (old[0] + old[1] + old[2] + s0 + s1 + s2) / 3.0
 
 
 @numba.njit(cache=True, inline="always")

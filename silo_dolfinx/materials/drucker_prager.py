@@ -37,7 +37,8 @@ import numba
 import numpy as np
 
 from silo_dolfinx.invariants import deviator_q_p, from_principal, invariants, principal
-from silo_dolfinx.materials.base import Material, equivalent_strain, plastic_strain_and_work
+from silo_dolfinx.materials.base import (Material, close_opening, closing_work, equivalent_strain,
+                                         plastic_strain_and_work)
 
 
 class DruckerPrager(Material):
@@ -46,8 +47,11 @@ class DruckerPrager(Material):
     state_fields = {"eqps": 1}  # equivalent plastic strain
 
     def __init__(self, youngs_modulus, poisson_ratio, density, friction_angle, dilation_angle, cohesion,
-                 max_dilation: float = 0.0):
+                 max_dilation: float = 0.0, recompaction: bool = False):
         super().__init__(youngs_modulus, poisson_ratio, density)
+        self.recompaction = bool(recompaction)
+        if self.recompaction:  # the volume opened at the apex, closed again without stress
+            self.state_fields = {"eqps": 1, "opening": 1}
         self.friction_angle, self.dilation_angle, self.cohesion = friction_angle, dilation_angle, cohesion
         self.tan_beta = math.tan(math.radians(friction_angle))
         self.tan_psi = math.tan(math.radians(dilation_angle))
@@ -59,7 +63,8 @@ class DruckerPrager(Material):
     noncoaxial = 0.0  # 4G²/(H_nc + 2G): zero for the coaxial law (see non_coaxial.py)
 
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
-        return float(_update(sig, deps, state_old["eqps"], self.parameters, sig_new, state_new["eqps"], dV))
+        return float(_update(sig, deps, self.state_pair(state_old), self.parameters, sig_new,
+                             self.state_pair(state_new), dV))
 
     @property
     def strength(self) -> tuple[float, float]:
@@ -67,10 +72,10 @@ class DruckerPrager(Material):
 
     @functools.cached_property
     def parameters(self) -> tuple[float, ...]:
-        """The law's constants as its kernel reads them (K, G, tan β, tan ψ, d, c_nc, ε̄_p,c, T);
-        built once, at the first update (after any subclass has set its constants)."""
+        """The law's constants as its kernel reads them (K, G, tan β, tan ψ, d, c_nc, ε̄_p,c, T,
+        recompaction 1/0); built once, at the first update (after any subclass has set its constants)."""
         return tuple(map(float, (self.K, self.G, self.tan_beta, self.tan_psi, self.cohesion, self.noncoaxial,
-                                 self.eqps_critical, self.tension_cutoff)))
+                                 self.eqps_critical, self.tension_cutoff, self.recompaction)))
 
     def yield_function(self, sig: np.ndarray) -> np.ndarray:
         """F(σ) for an (n, 4) array (≤ 0 admissible)."""
@@ -115,17 +120,20 @@ def _max_principal(s0, s1, s2, s3):
 
 
 @numba.njit(cache=True, fastmath={"contract", "arcp", "reassoc", "nsz", "afn"})
-def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
+def _update(sig, deps, old, law, sig_new, new, dV):
     """The return map (module docstring) over all points, written out in scalars (the hot
     loop of a plastic step); also the plastic dissipation σ_mid : Δε_p and ε̄_p.
 
-    law = (K, G, tan β, tan ψ, d, c_nc, eqps_c, T) (:attr:`DruckerPrager.parameters`).
+    law = (K, G, tan β, tan ψ, d, c_nc, eqps_c, T, recompaction) (:attr:`DruckerPrager.parameters`);
+    old, new = (ε̄_p, opening) arrays (without recompaction the opening is not read or written).
     c_nc = 4G²/(H_nc + 2G) > 0 adds the yield-vertex non-coaxial plastic strain (eq. 8-11)
     at points that load plastically: the trial deviator loses c_nc Δe_t, Δe_t the part of
     the deviatoric strain increment tangential to the current deviator s (s : Δe_t = 0).
     Points with ε̄_p ≥ eqps_c flow at constant volume (ψ = 0: the critical state).
     T < inf: the tension cut-off (module docstring), checked at every point."""
-    K, G, tanb, tanpsi0, d, c_nc, eqps_c, T = law
+    K, G, tanb, tanpsi0, d, c_nc, eqps_c, T, recompact = law
+    eqps, opening = old
+    eqps_new, opening_new = new
     diss = 0.0
     lam = K - 2.0 * G / 3.0
     two_g = 2.0 * G
@@ -134,6 +142,12 @@ def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
     for i in range(sig.shape[0]):
         e0, e1, e2, e3 = deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3]
         tr = e0 + e1 + e2
+        op = 0.0
+        if recompact > 0.0:
+            e0, e1, e2, tr, op, closing = close_opening(e0, e1, e2, opening[i])
+            if closing > 0.0:  # against the start's mean stress (an opened point is at the apex, ~d/tan β)
+                diss += 0.5 * dV[i] * closing_work(closing, sig[i], sig[i, 0], sig[i, 1], sig[i, 2])
+            opening_new[i] = op
         t0 = sig[i, 0] + lam * tr + two_g * e0
         t1 = sig[i, 1] + lam * tr + two_g * e1
         t2 = sig[i, 2] + lam * tr + two_g * e2
@@ -188,4 +202,6 @@ def _update(sig, deps, eqps, law, sig_new, eqps_new, dV):
         diss += 0.5 * dV[i] * w2
         if apex:
             eqps_new[i] = eqps[i] + equivalent_strain(p0, p1, p2, p3)
+            if recompact > 0.0:  # pulled apart: remember the opening
+                opening_new[i] = op + max(p0 + p1 + p2, 0.0)
     return diss

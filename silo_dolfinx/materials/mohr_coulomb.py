@@ -52,7 +52,8 @@ import numpy as np
 
 from silo_dolfinx.invariants import from_principal, principal
 from silo_dolfinx.kernels import FAST
-from silo_dolfinx.materials.base import Material, equivalent_strain, plastic_strain_and_work
+from silo_dolfinx.materials.base import (Material, close_opening, closing_work, equivalent_strain,
+                                         plastic_strain_and_work)
 from silo_dolfinx.theory import drucker_prager_cone
 
 
@@ -77,10 +78,8 @@ class MohrCoulomb(Material):
         self.apex = cohesion / math.tan(math.radians(friction_angle))  # hydrostatic tension (Pa)
 
     def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
-        e_old, e_new = state_old["eqps"], state_new["eqps"]
-        old = (e_old, state_old["opening"]) if self.recompaction else (e_old, e_old)
-        new = (e_new, state_new["opening"]) if self.recompaction else (e_new, e_new)
-        return float(_update(sig, deps, old, self.parameters, sig_new, new, dV))
+        return float(_update(sig, deps, self.state_pair(state_old), self.parameters, sig_new,
+                             self.state_pair(state_new), dV))
 
     @property
     def strength(self) -> tuple[float, float]:
@@ -162,14 +161,7 @@ def _update(sig, deps, old, law, sig_new, new, dV):
         op = 0.0
         closing = 0.0
         if recompact > 0.0:
-            op = opening[i]
-            if tr < 0.0 and op > 0.0:  # a compression first closes what the apex opened, without stress
-                closing = min(-tr, op)
-                e0 += closing / 3.0
-                e1 += closing / 3.0
-                e2 += closing / 3.0
-                tr += closing
-                op -= closing
+            e0, e1, e2, tr, op, closing = close_opening(e0, e1, e2, opening[i])
         t0 = sig[i, 0] + lam * tr + two_g * e0
         t1 = sig[i, 1] + lam * tr + two_g * e1
         t2 = sig[i, 2] + lam * tr + two_g * e2
@@ -191,6 +183,5 @@ def _update(sig, deps, old, law, sig_new, new, dV):
         sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = s0, s1, s2, s3
         if recompact > 0.0:
             opening_new[i] = op
-            # the closing is a plastic compaction -closing/3 I, done against the mean stress
-            diss -= 0.5 * dV[i] * closing * (sig[i, 0] + sig[i, 1] + sig[i, 2] + s0 + s1 + s2) / 3.0
+            diss += 0.5 * dV[i] * closing_work(closing, sig[i], s0, s1, s2)
     return diss

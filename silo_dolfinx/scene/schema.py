@@ -243,6 +243,10 @@ MATERIAL = Section(
               "void ratios) to its critical void ratio at silo stresses; 0.036-0.10 spans relative "
               "densities 30-60 % (docs/material.md). 0 = dilation never stops (the "
               "thesis' Drucker-Prager: the density near an outlet then keeps falling).", lo=0.0, hi=1.0),
+        Key("recompaction", "bool", False, doc="true: volume a point opens at the apex (pulled apart, its "
+            "grains out of contact) is closed again without stress by later compression before it carries "
+            "load (state field `opening`); false: the opening is permanent, and a cell that is stretched and "
+            "squeezed in turn ratchets its density down (docs/material.md)."),
         ),
     },
 )
@@ -254,11 +258,7 @@ MATERIAL.variants["mohr_coulomb"] = (
       "(≤ friction_angle; equal = associated).", lo=0.0, hi=60.0),
     F("cohesion", 1.0, "Pa", "c: Mohr-Coulomb cohesion; the pyramid's apex is the hydrostatic "
       "tension c/tan φ, and no principal stress exceeds it.", **NONNEG),
-    *(k for k in MATERIAL.variants["drucker_prager"] if k.name == "max_dilation"),
-    Key("recompaction", "bool", False, doc="true: volume a point opens at the apex (pulled apart, its "
-        "grains out of contact) is closed again without stress by later compression before it carries "
-        "load (state field `opening`); false: the opening is permanent, and a cell that is stretched and "
-        "squeezed in turn ratchets its density down (docs/material.md)."),
+    *(k for k in MATERIAL.variants["drucker_prager"] if k.name in ("max_dilation", "recompaction")),
 )
 MATERIAL.variants["non_coaxial"] = MATERIAL.variants["drucker_prager"] + (
     F("noncoaxial_modulus", unit="Pa", doc="H_nc: modulus of the non-coaxial plastic strain rate "

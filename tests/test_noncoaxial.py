@@ -146,10 +146,14 @@ def test_dissipation_is_non_negative_along_shear():
     assert q <= p * nc.tan_beta + nc.cohesion + 1e-6 * p
 
 
-def test_noncoaxiality_leaves_filling_pressures_unchanged(shared_tmp, comm):
-    """Ch. 8.4 steep hopper (TARGETS' dimensions), filled by a gravity ramp: wall pressures
+@pytest.mark.parametrize("silo", ["steep_hopper_ch8", "flat_bottom_ch8"])
+def test_noncoaxiality_leaves_filling_pressures_unchanged(shared_tmp, comm, silo):
+    """Ch. 8.4's two silos (the steep hopper of TARGETS' dimensions, the flat-bottomed silo of
+    docs/validation/ch8.md), filled by a damped gravity ramp on a coarse mesh: wall pressures
     with and without the non-coaxial term agree within 2 % over the middle 80 % of the wall
-    (measured 0.9 %): plastic flow during filling is small and nearly proportional."""
+    at every wall node (measured, worst node: hopper 0.002 %, flat bottom 0.012 %; the full demo
+    runs, finer and on slower ramps, 0.01 % and 1.09 % in the mean): plastic flow during
+    filling is small and nearly proportional, and the non-coaxial term acts only at yield."""
     from silo_dolfinx.output import read_csv
 
     from conftest import SCENES
@@ -159,14 +163,17 @@ def test_noncoaxiality_leaves_filling_pressures_unchanged(shared_tmp, comm):
 
     prof = {}
     for name in ("coaxial", "noncoaxial"):
-        sc = load_scene(SCENES / f"steep_hopper_ch8_{name}.toml",
-                        ["geometry.element_size=0.04", 'geometry.mesh="unstructured"', 'discharge.mode="none"',
+        sc = load_scene(SCENES / f"{silo}_{name}.toml",
+                        ["geometry.element_size=0.05" if silo.startswith("flat") else "geometry.element_size=0.04",
+                         'geometry.mesh="unstructured"', 'discharge.mode="none"',
                          "fill.damping=0.3", "fill.duration=2.0", "store.duration=0.5", "output.field_interval=100"])
-        run(sc, shared_tmp / name, comm, progress_every=1e9)
+        run(sc, shared_tmp / f"{silo}_{name}", comm, progress_every=1e9)
         comm.barrier()
-        w = read_csv(shared_tmp / name / "wall_profile_store.csv")
+        w = read_csv(shared_tmp / f"{silo}_{name}" / "wall_profile_store.csv")
         prof[name] = np.column_stack([w["z"], w["p_n"]])
     a, b = prof["coaxial"], prof["noncoaxial"]
-    assert np.allclose(a[:, 0], b[:, 0], atol=1e-3)  # the same wall nodes, deformed slightly differently
-    mid = (a[:, 0] > 0.1 * 2.64) & (a[:, 0] < 0.9 * 2.64)
-    assert np.all(np.abs(b[mid, 1] / a[mid, 1] - 1) < 0.02)
+    height = sc.outline.fill_height
+    assert np.allclose(a[:, 0], b[:, 0], atol=1e-3 * height)  # the same wall nodes, deformed slightly differently
+    mid = (a[:, 0] > 0.1 * height) & (a[:, 0] < 0.9 * height)
+    worst = np.abs(b[mid, 1] / a[mid, 1] - 1).max()
+    assert worst < 0.02, worst

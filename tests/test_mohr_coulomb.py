@@ -188,7 +188,7 @@ def _cohesionless(law, recompact):
     beta, psi = drucker_prager_cone(PHI, PSI, "compression")
     if law == "drucker_prager":
         return DruckerPrager(E, NU, RHO, beta, psi, 0.0, 0.05, recompact)
-    return NonCoaxial(E, NU, RHO, beta, psi, 0.0, 0.3 * E, 0.05, recompact)
+    return NonCoaxial(E, NU, RHO, beta, psi, 0.0, 0.3 * E, max_dilation=0.05, recompaction=recompact)
 
 
 @pytest.mark.parametrize("law", ["mohr_coulomb", "drucker_prager", "non_coaxial"])

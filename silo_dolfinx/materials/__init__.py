@@ -26,7 +26,7 @@ def make_material(m) -> Material:
                              m["max_dilation"], m["recompaction"])
     if m["model"] == "non_coaxial":
         return NonCoaxial(m["youngs_modulus"], m["poisson_ratio"], m["density"], beta, psi, m["cohesion"],
-                          m["noncoaxial_modulus"], m["max_dilation"], m["recompaction"])
+                          m["noncoaxial_modulus"], max_dilation=m["max_dilation"], recompaction=m["recompaction"])
     raise ValueError(f"[material] model = {m['model']!r}: unknown")  # the scene schema prevents this
 
 

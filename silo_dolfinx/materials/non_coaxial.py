@@ -24,9 +24,9 @@ class NonCoaxial(DruckerPrager):
     name = "non_coaxial"
 
     def __init__(self, youngs_modulus, poisson_ratio, density, friction_angle, dilation_angle, cohesion,
-                 noncoaxial_modulus, max_dilation: float = 0.0, recompaction: bool = False):
-        super().__init__(youngs_modulus, poisson_ratio, density, friction_angle, dilation_angle, cohesion,
-                         max_dilation, recompaction)
+                 noncoaxial_modulus, **flow):
+        """``flow``: the Drucker-Prager law's max_dilation and recompaction."""
+        super().__init__(youngs_modulus, poisson_ratio, density, friction_angle, dilation_angle, cohesion, **flow)
         if not noncoaxial_modulus > 0:
             raise ValueError("noncoaxial_modulus must be positive")
         self.noncoaxial_modulus = noncoaxial_modulus

@@ -73,6 +73,18 @@ def discharge_mean(path, t_from):
 # the principal axes rotate while yielding). Discharge: averaged over t ≥ 1 s after opening.
 
 # +
+def oscillation(path, t_from):
+    """Median over the stations in the lower 80 % of the wall of std(p_n)/mean(p_n) for
+    t ≥ t_from: how strongly the wall pressures pulse in discharge."""
+    h = read_csv(path)
+    late = h["t"] >= t_from
+    st = sorted(set(h["station"][late]))
+    z = np.array([h["z"][late & (h["station"] == k)].mean() for k in st])
+    p = [h["p_n"][late & (h["station"] == k)] for k in st]
+    cv = np.array([x.std() / max(x.mean(), 1e-9) for x in p])
+    return float(np.median(cv[z < 0.8 * z.max()]))
+
+
 def run_pair(cases, stations):
     """Run a coaxial / non-coaxial scene pair; {name: (summary, t_open)}."""
     out = {}
@@ -125,7 +137,9 @@ def compare(cases, results, figure, title):
     for name in cases:
         o = read_csv(OUT / name / "outlet.csv")
         late = o["t"] >= results[name][1] + 1.0
-        print(f"{name}: mass flow from 1 s after opening {np.mean(o['mass_flow_rate'][late]):.1f} kg/s")
+        osc = oscillation(OUT / name / "wall_history.csv", results[name][1] + 1.0)
+        print(f"{name}: mass flow from 1 s after opening {np.mean(o['mass_flow_rate'][late]):.1f} kg/s; wall "
+              f"pressure std/mean {osc:.2f} (median of the stations in the lower 80 % of the wall)")
     print(f"figure: {OUT / figure}")
     return fill_diff, dis
 

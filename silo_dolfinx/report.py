@@ -57,6 +57,13 @@ class Report:
         matplotlib.use("Agg")
 
     # ------------------------------------------------------------------ helpers
+    def _station(self, k, z: float) -> str:
+        """How station ``k`` (its index in output.stations) at height ``z`` is named in figures and
+        numbers: "z = 0.66 m", or with output.station_labels "D (z = 0.69 m)"."""
+        labels = self.scene.output.station_labels if self.scene is not None else []
+        name = labels[int(k)] if int(k) < len(labels) else ""
+        return f"{name} (z = {z:.2f} m)" if name else f"z = {z:.2f} m"
+
     def _save(self, fig, name: str, caption: str) -> None:
         import matplotlib.pyplot as plt
 
@@ -228,7 +235,7 @@ class Report:
         fig, ax = plt.subplots(figsize=(10, 5))
         for k in np.unique(h["station"]).astype(int):
             sel = h["station"] == k
-            ax.plot(h["t"][sel], h["p_n"][sel] / 1e3, lw=0.8, label=f"z = {np.nanmean(h['z'][sel]):.2f} m")
+            ax.plot(h["t"][sel], h["p_n"][sel] / 1e3, lw=0.8, label=self._station(k, np.nanmean(h["z"][sel])))
         for name, (t0, t1) in self._stage_times().items():
             ax.axvline(t1, color="0.6", lw=0.6, ls=":")
         ax.set_xlabel("time t (s)")
@@ -290,9 +297,9 @@ class Report:
             if sel.sum() < 16:
                 continue
             sp = analysis.spectrum(h["t"][sel], h["p_n"][sel])
-            ax.plot(sp.frequency, sp.amplitude, lw=0.8, label=f"z = {np.nanmean(h['z'][sel]):.2f} m")
+            ax.plot(sp.frequency, sp.amplitude, lw=0.8, label=self._station(k, np.nanmean(h["z"][sel])))
             pk = sp.peaks(2, min_frequency=sp.resolution)
-            rows.append((np.nanmean(h["z"][sel]), pk, sp.resolution))
+            rows.append((self._station(k, np.nanmean(h["z"][sel])), pk, sp.resolution))
         if not rows:
             plt.close(fig)
             self.missing.append("spectra (too few samples)")
@@ -305,8 +312,8 @@ class Report:
         ax.legend(fontsize=7, ncol=2)
         ax.grid(alpha=0.3, which="both")
         self._save(fig, "spectra.png", f"Amplitude spectra of p_n ({window}); dashed: eq. 4-12.")
-        z, pk, res = rows[len(rows) // 2]
-        self.numbers.append((f"spectral peaks at z = {z:.2f} m ({window})",
+        name, pk, res = rows[len(rows) // 2]
+        self.numbers.append((f"spectral peaks at {name} ({window})",
                              ", ".join(f"{p:.3g} Hz" for p in pk) + f" (resolution {res:.3g} Hz)"))
         if f_theory:
             self.numbers.append(("eq. 4-12 longitudinal frequency", f"{f_theory:.3g} Hz"))
@@ -421,10 +428,11 @@ class Report:
             self.missing.append(f"wall dynamics at z = {e[1]:.2f} m (the discharge ends too soon after its switch, "
                                 f"{e[2]:.3g} s after opening)")
             return
-        self.numbers.append((f"station z = {e[1]:.2f} m: RMS of p_n above 1 Hz", f"{e[6]:.3g} Pa"))
-        self.numbers.append((f"station z = {e[1]:.2f} m (≈ h/4, point e): < 1 Hz RMS, its frequency; wave peak",
+        name = self._station(e[0], e[1])
+        self.numbers.append((f"station {name}: RMS of p_n above 1 Hz", f"{e[6]:.3g} Pa"))
+        self.numbers.append((f"station {name} (≈ h/4, point e): < 1 Hz RMS, its frequency; wave peak",
                              f"{e[4]:.3g} Pa at {e[5]:.3g} Hz; {e[7]:.3g} Hz (from {e[2]:.3g} s after opening)"))
-        self.numbers.append((f"station z = {e[1]:.2f} m: mobilised |p_s|/p_n, time sliding",
+        self.numbers.append((f"station {name}: mobilised |p_s|/p_n, time sliding",
                              f"{e[8]:.4f}; {100 * e[9]:.0f} % of the discharge"))
         t0 = t_open + e[2]
         sel = (h["station"] == e[0]) & (h["t"] >= t0) & (h["t"] <= t1)

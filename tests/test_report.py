@@ -272,3 +272,19 @@ def test_flow_channel_at_successive_discharged_volumes(flat_bottom):
     assert nums["discharged V_dis (eq. 6-2, in mass) at the end"] == "16.2 %"
     steady = [v for k, v in nums.items() if k.startswith("steady flow from")][0]
     assert steady.startswith("t = 1 s"), steady
+
+
+def test_report_names_stations_by_their_labels(synthetic):
+    """output.station_labels name the stations (in the legends and in the numbers): the middle
+    station, at h/4 of the ch. 4 fill, is the thesis' point e; an empty name leaves a station
+    known by its height alone."""
+    sc = load_scene(synthetic / "scene.toml", ["output.stations=[0.33, 0.66, 1.32]",
+                                               'output.station_labels=["a", "e", ""]'])
+    (synthetic / "scene.toml").write_text(sc.to_toml())
+    text = make_report(synthetic).read_text()
+    assert "| spectral peaks at e (z = 0.66 m) (" in text
+    assert "| station e (z = 0.66 m) (≈ h/4, point e): < 1 Hz RMS" in text
+    from silo_dolfinx.report import Report
+
+    r = Report(synthetic)
+    assert (r._station(0, 0.33), r._station(2, 1.32)) == ("a (z = 0.33 m)", "z = 1.32 m")

@@ -254,6 +254,18 @@ def test_station_outside_the_wall():
     assert_names(err, "output.stations", "3 m", "[0, 2.64]")
 
 
+def test_station_labels_one_per_station():
+    """Names for the stations: one per station (the default ten included), strings only."""
+    err = refused(scene_dict(HOPPER, output={"stations": [1.0, 2.0], "station_labels": ["A"]}))
+    assert_names(err, "output.station_labels", "1 names for 2 stations", "one name per station")
+    err = refused(scene_dict(HOPPER, output={"station_labels": ["A", "B"]}))  # ten derived stations
+    assert_names(err, "output.station_labels", "2 names for 10 stations")
+    err = refused(scene_dict(HOPPER, output={"stations": [1.0], "station_labels": [5]}))
+    assert_names(err, "output.station_labels", "list of short strings")
+    s = load_scene(scene_dict(HOPPER, output={"stations": [1.0, 2.0], "station_labels": ["D", ""]}))
+    assert s.output.station_labels == ["D", ""]
+
+
 def test_circular_base(tmp_path):
     a, b = tmp_path / "a.toml", tmp_path / "b.toml"
     a.write_text('base = "b.toml"\n')

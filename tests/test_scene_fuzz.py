@@ -73,6 +73,8 @@ WRONG = {
     "choice": st.one_of(st.integers(), st.floats(allow_nan=False), st.booleans(), st.text(max_size=12)),
     "floats": st.one_of(st.text(max_size=5), st.floats(allow_nan=False), st.lists(st.text(max_size=3), min_size=1,
                                                                                  max_size=3)),
+    "strings": st.one_of(st.text(max_size=5), st.floats(allow_nan=False), st.lists(st.integers(), min_size=1,
+                                                                                  max_size=3)),
     "points": st.one_of(st.floats(allow_nan=False), st.text(max_size=5),
                         st.lists(st.lists(st.floats(allow_nan=False), min_size=3, max_size=3), min_size=2, max_size=3)),
     "locations": st.one_of(st.floats(allow_nan=False), st.text(max_size=5),

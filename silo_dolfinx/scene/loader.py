@@ -370,6 +370,8 @@ def _normalise(k: Key, v):
         return [float(x) for x in v]
     if k.kind in ("points", "locations"):
         return [[float(a), float(b)] for a, b in v]
+    if k.kind == "strings":
+        return [str(x) for x in v]
     return v
 
 
@@ -382,7 +384,8 @@ def _check_value(section: str, k: Key, v) -> list[Problem]:
     fix = f" Fix: e.g. `{k.name} = {ex}`."
     unit = f" {k.unit}" if k.unit and k.unit != "-" else ""
     want = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string",
-            "choice": "a string", "floats": "a list of numbers", "points": "a list of [r, z] pairs",
+            "choice": "a string", "floats": "a list of numbers", "strings": "a list of strings",
+            "points": "a list of [r, z] pairs",
             "locations": "a list of [r, z] pairs"}
     if k.kind == "float" and not _is_num(v) or k.kind == "bool" and not isinstance(v, bool) \
             or k.kind in ("str", "choice") and not isinstance(v, str):
@@ -407,6 +410,10 @@ def _check_value(section: str, k: Key, v) -> list[Problem]:
         if bad:
             return [Problem(section, k.name, f"= {v!r}: every entry must be {k.range_text()} "
                             f"(offending: {_fmt(bad[0])}).{fix}")]
+    if k.kind == "strings":
+        if not isinstance(v, list | tuple) or not all(isinstance(x, str) and len(x) <= 24 for x in v):
+            return [Problem(section, k.name, f"= {v!r}: wrong type, expected a list of short strings (at most 24 "
+                            f"characters each, or []).{fix}")]
     if k.kind == "locations":
         ok = isinstance(v, list | tuple) and all(
             isinstance(p, list | tuple) and len(p) == 2 and all(_is_num(x) and math.isfinite(x) for x in p) for p in v)
@@ -531,6 +538,11 @@ def _resolve_derived(out: dict[str, Any]) -> list[Problem]:
                                  f"the {name} must be in [0, {top:g}] m. Fix: remove it or use a value "
                                  "in that range."))
                 break
+    labels = o["station_labels"]
+    if labels and len(labels) != len(o["stations"]):
+        p.append(Problem("output", "station_labels", f"= {_fmt(labels)}: {len(labels)} names for {len(o['stations'])} "
+                         "stations. Fix: give one name per station, in the order of `stations` (\"\" for an "
+                         "unnamed one), or [] for heights only."))
     p += _point_checks(o, g)
     return p
 

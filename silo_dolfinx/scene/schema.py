@@ -31,7 +31,7 @@ DERIVED = _Sentinel("DERIVED")  # filled in by the loader from other keys (docum
 @dataclass(frozen=True)
 class Key:
     name: str
-    kind: str  # float | int | bool | str | choice | floats | points
+    kind: str  # float | int | bool | str | choice | floats | strings | points | locations
     default: Any = REQUIRED
     unit: str = ""
     doc: str = ""
@@ -56,7 +56,8 @@ class Key:
             return f"{'>' if self.lo_open else '≥'} {_num(self.lo)}{u}"
         if self.hi is not None:
             return f"{'<' if self.hi_open else '≤'} {_num(self.hi)}{u}"
-        return {"bool": "true or false", "str": "a string", "points": "a list of [r, z] pairs",
+        return {"bool": "true or false", "str": "a string", "strings": "a list of strings (may be empty)",
+                "points": "a list of [r, z] pairs",
                 "locations": "a list of [r, z] pairs (may be empty)"}.get(
             self.kind, f"a {self.kind}"
         )
@@ -426,6 +427,10 @@ OUTPUT = Section(
             "wall_history.csv (the wall stream is not built)."),
         C("station_coordinate", ("z", "s"), "z", "z: stations are heights; s: wall arclengths "
           "from the outlet edge."),
+        Key("station_labels", "strings", (), "-", "Names of the stations, one per station in the same "
+            "order (the thesis' cell or point labels, e.g. \"A5\" or \"D\"; \"\" leaves one unnamed), "
+            "shown with their height in the report's figures and numbers; [] = heights only.",
+            example=["A", "D", "H"]),
         F("history_rate", 200.0, "Hz", "Sampling rate of time histories (at most one sample per step).",
           lo=0.0, hi=1.0e6, lo_open=True),
         Key("points", "locations", (), "m", "Interior points [r, z] whose stress (the mean of the cell "

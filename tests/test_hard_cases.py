@@ -276,6 +276,29 @@ run(sc, sys.argv[1], progress_every=1e9)
 """
 
 
+def _stop_after_a_discharge_checkpoint(job, out, stop) -> None:
+    """Wait (at most 120 s) until the job in ``out`` has written a checkpoint in its discharge
+    (0.2 s of storage, then 0.05 s of discharge), then ``stop()`` it and wait for it to end; the
+    job's process group is killed whatever happens."""
+    import os
+    import signal
+    import time
+
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and job.poll() is None:
+            s = json.loads((out / "summary.json").read_text()) if (out / "summary.json").is_file() else {}
+            if s.get("checkpoint", {}).get("t", 0.0) > 0.25:
+                break
+            time.sleep(0.05)
+        assert job.poll() is None, job.stderr.read().decode()[-2000:]
+        stop()
+        job.wait(timeout=60)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+
+
 @pytest.mark.serial  # starts its own jobs, on 1 and on 2 ranks, and kills them
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_a_run_killed_mid_discharge_leaves_readable_results_and_resumes_to_the_same_end(tmp_path, ranks):
@@ -287,7 +310,6 @@ def test_a_run_killed_mid_discharge_leaves_readable_results_and_resumes_to_the_s
     same operations)."""
     import os
     import signal
-    import time
 
     from silo_dolfinx.output import read_rows
 
@@ -299,19 +321,7 @@ def test_a_run_killed_mid_discharge_leaves_readable_results_and_resumes_to_the_s
     out = tmp_path / "out"
     job = subprocess.Popen([*launch, sys.executable, str(script), str(out), *args], env=subprocess_env(),
                            start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    try:
-        deadline = time.time() + 120
-        while time.time() < deadline and job.poll() is None:
-            s = json.loads((out / "summary.json").read_text()) if (out / "summary.json").is_file() else {}
-            if s.get("checkpoint", {}).get("t", 0.0) > 0.25:  # 0.2 s of storage, then 0.05 s of discharge
-                break
-            time.sleep(0.05)
-        assert job.poll() is None, job.stderr.read().decode()[-2000:]
-        os.killpg(job.pid, signal.SIGKILL)
-        job.wait(timeout=30)
-    finally:
-        if job.poll() is None:
-            os.killpg(job.pid, signal.SIGKILL)
+    _stop_after_a_discharge_checkpoint(job, out, lambda: os.killpg(job.pid, signal.SIGKILL))
     csvs = sorted(out.glob("*.csv"))
     assert {"energy.csv", "outlet.csv", "wall_history.csv", "mesh_quality.csv"} <= {p.name for p in csvs}
     for path in csvs:
@@ -347,9 +357,7 @@ def test_a_run_stopped_by_sigterm_says_interrupted_and_resumes(tmp_path):
     SIGTERM killed the ranks outright and summary.json said "running"; acted on where it landed,
     one rank stopped while the other waited in a collective (30 s, then MPI_Abort): the signal
     now only asks, and the ranks stop together at the next history sample."""
-    import os
     import signal
-    import time
 
     from silo_dolfinx.output import read_rows
 
@@ -360,19 +368,7 @@ def test_a_run_stopped_by_sigterm_says_interrupted_and_resumes(tmp_path):
     job = subprocess.Popen([*cli, str(SCENES / f"{scene}.toml"), "--out", str(out), "--progress", "1e9",
                             *(a for s in sets for a in ("--set", s))],
                            env=subprocess_env(), start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    try:
-        deadline = time.time() + 120
-        while time.time() < deadline and job.poll() is None:
-            s = json.loads((out / "summary.json").read_text()) if (out / "summary.json").is_file() else {}
-            if s.get("checkpoint", {}).get("t", 0.0) > 0.25:  # 0.2 s of storage, then 0.05 s of discharge
-                break
-            time.sleep(0.05)
-        assert job.poll() is None, job.stderr.read().decode()[-2000:]
-        job.send_signal(signal.SIGTERM)  # to mpirun, which forwards it to the ranks
-        job.wait(timeout=60)
-    finally:
-        if job.poll() is None:
-            os.killpg(job.pid, signal.SIGKILL)
+    _stop_after_a_discharge_checkpoint(job, out, lambda: job.send_signal(signal.SIGTERM))  # mpirun forwards it
     assert job.returncode == 130, job.stderr.read().decode()[-2000:]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "interrupted", summary

@@ -22,8 +22,19 @@ top corners (top ∩ wall, top ∩ axis)
     Lagrangian;
 interior
     from a *predictor* — the previous smoothed position (``previous``, the mesh stays put
-    unless the boundary moves: an Eulerian-like interior) or the Lagrangian one
-    (``current``) — then ``sweeps`` Jacobi sweeps of the weighted Laplacian (eq. 3-4:
+    unless the boundary moves: an Eulerian-like interior), the Lagrangian one (``current``),
+    or the previous one **stretched with the free surface** (``stretched``): a node above
+    the base z_b (the height of the highest wall corner under the fill, where the wall rule's
+    stretching starts) keeps its fraction of the height between z_b and the surface above it,
+
+        z' = z_b + (z − z_b) (T(r) − z_b) / (T_prev(r) − z_b),   r' = r R(z') / R(z),
+
+    T the current material surface, T_prev the previous smoothed one, R the wall's radius
+    (so a node in a converging hopper stays inside it); the axis nodes take the same rule.
+    The interior then follows the draining surface, as the wall and axis already do: with
+    ``previous`` only the sweeps' slow diffusion brings it down, and the top row of cells is
+    crushed wherever the surface falls faster than that (a crater on the axis, a surface
+    dropping at the wall) — then ``sweeps`` Jacobi sweeps of the weighted Laplacian (eq. 3-4:
     mean of the edge neighbours) and mid-area (eq. 3-5: area-weighted mean of the
     adjacent cell centroids) averages:
 
@@ -138,6 +149,11 @@ class Smoother:
         where = {g: i for i, g in enumerate(order)}
         self.top_fraction = np.array([lam[where[g]] for g in gidx[self.top_nodes]])
 
+        # stretched predictor: every local interior and axis node (owned and ghost: the same
+        # arithmetic on the same data on every rank), the wall's radius by height, the base
+        self.stretched = np.nonzero((cls == INTERIOR) | (cls == AXIS))[0]
+        self._radius_table = _radius_table(wall)
+
         # graded objective: the reference mesh's own residuals are subtracted
         self.r0 = np.zeros((self.n_nodes, 4))
         if objective == "graded":
@@ -195,11 +211,17 @@ class Smoother:
     # ------------------------------------------------------------------ the smoothing
     def targets(self, xL: np.ndarray) -> np.ndarray:
         """Boundary nodes on their targets, interior nodes at the predictor (all local rows)."""
-        x = (self.x_prev if self.predictor == "previous" else xL).copy()
+        stretched = self.predictor == "stretched"
+        x = (xL if self.predictor == "current" else self.x_prev).copy()
+        prev = self._top_polyline(self.x_prev).copy() if stretched else None  # (one buffer for both)
         pts = self._top_polyline(xL)
         s_top, z_top = self._top_corners(pts)
+        if stretched:  # interior and axis nodes from their previous places, with the surface
+            base = float(self.wall.point_at(_stretch_base(self.anchors, s_top, self.S0_top, self.wall.length))[0, 1])
+            _stretch(x, self.stretched, (pts, prev), base, self._radius_table)
+        axis = self.axis_nodes[:0] if stretched else self.axis_nodes
         _place_boundary(x, xL, (pts, s_top, z_top), (self.X, self.outlet, self.wall_corner, self.axis_corner),
-                        (self.wall_nodes, self.S0, self.anchors, self.S0_top), (self.axis_nodes, self.Z0, self.Z0_top),
+                        (self.wall_nodes, self.S0, self.anchors, self.S0_top), (axis, self.Z0, self.Z0_top),
                         (self.top_nodes, self.top_fraction), self.wall.arrays)
         return x
 
@@ -265,6 +287,40 @@ def _flag_cells_below(x, cn, orient, n, floor, flag):
                 for j in range(4):
                     flag[cn[c, j]] += 1.0
                 break
+
+
+def _stretch_base(anchors: np.ndarray, s_top: float, S0_top: float, length: float) -> float:
+    """Arclength of the highest wall anchor under the top corner (then and now): where the
+    wall rule's stretching starts (below it the wall nodes hold their arclength)."""
+    below = anchors[anchors < min(s_top, S0_top) - 1e-9 * length]
+    return float(below.max(initial=0.0))
+
+
+def _radius_table(wall, n: int = 4096) -> tuple[np.ndarray, np.ndarray]:
+    """(z, R(z)) on the rising part of the wall, for interpolation (error ~ (L/n)² / radius of
+    a fillet: < 1e-6 m for silo walls)."""
+    p = wall.point_at(np.linspace(0.0, wall.length, n))
+    last_at_its_height = np.append(np.diff(p[:, 1]) > 0.0, True)  # a floor's outer end, not its inner one
+    return np.ascontiguousarray(p[last_at_its_height, 1]), np.ascontiguousarray(p[last_at_its_height, 0])
+
+
+@numba.njit(cache=True)
+def _stretch(x, nodes, surfaces, base, radius):
+    """The ``stretched`` predictor, in place on the rows ``nodes`` of ``x``: heights above
+    ``base`` scaled with the free surface above them (surfaces = (current, previous) top
+    polylines, axis first), radii with the wall's radius table (z, R) at the new height."""
+    now, prev = surfaces
+    zt, rt = radius
+    for i in nodes:
+        r, z = x[i, 0], x[i, 1]
+        if z <= base:
+            continue
+        h_prev = np.interp(r, prev[:, 0], prev[:, 1]) - base
+        if h_prev <= 0.0:
+            continue
+        z_new = base + (z - base) * (np.interp(r, now[:, 0], now[:, 1]) - base) / h_prev
+        x[i, 1] = z_new
+        x[i, 0] = r * np.interp(z_new, zt, rt) / np.interp(z, zt, rt)
 
 
 @numba.njit(cache=True)

@@ -405,10 +405,13 @@ ALE = Section(
         F("mid_area_weight", 0.5, "-", "Weight of mid-area (volume-weighted) smoothing (eq. 3-5); "
           "the two weights sum to at most 1.", lo=0.0, hi=1.0),
         I("remap_order", 2, doc="1: donor cell (first order); 2: limited second order.", lo=1, hi=2),
-        C("predictor", ("previous", "current"), "previous",
+        C("predictor", ("previous", "current", "stretched"), "previous",
           "Where interior nodes start each smoothing: previous = their last smoothed position (the "
           "mesh stays put unless the boundary moves: mostly Eulerian); current = where the material "
-          "took them (mostly Lagrangian, more distortion, less remapping)."),
+          "took them (mostly Lagrangian, more distortion, less remapping); stretched = the previous "
+          "position stretched with the free surface above it (each node keeps its fraction of the "
+          "height between the wall's highest corner under the fill and the surface; the axis too), "
+          "so that the top rows follow a crater or a surface falling at the wall."),
         C("smoothing_objective", ("graded", "uniform"), "graded",
           "graded: smooth only the distortion relative to the initial mesh (keeps its refinement); "
           "uniform: plain eqs. 3-4/3-5 (evens out element sizes)."),

@@ -79,6 +79,9 @@ KNOBS = {
     "mesh_size": ("discharge", "geometry.element_size", [0.12, 0.08, 0.06], 0.04),
     "smoothing_frequency": ("discharge", "ale.frequency", [50, 20, 10, 5], 1),
     "remap_order": ("discharge", "ale.remap_order", [1], 2),
+    # where the smoothing starts the interior (no setting is more accurate by construction: the
+    # reference is the long-standing default)
+    "smoothing_predictor": ("discharge", "ale.predictor", ['"stretched"', '"current"'], '"previous"'),
     "mass_scaling": ("discharge", "numerics.mass_scaling", [100.0, 25.0, 4.0], 1.0),
     "bulk_viscosity": ("filling", "numerics.bulk_viscosity", [[0.0, 0.0], [0.12, 2.4]], [0.06, 1.2]),
     "fill_layers": ("filling", "fill.layers", [2, 5, 10], 20),

@@ -297,11 +297,14 @@ def _stretch_base(anchors: np.ndarray, s_top: float, S0_top: float, length: floa
 
 
 def _radius_table(wall, n: int = 4096) -> tuple[np.ndarray, np.ndarray]:
-    """(z, R(z)) on the rising part of the wall, for interpolation (error ~ (L/n)² / radius of
-    a fillet: < 1e-6 m for silo walls)."""
-    p = wall.point_at(np.linspace(0.0, wall.length, n))
+    """(z_0, Δz, R) with R the wall's radius at z_0 + k Δz, k = 0..n−1, on the rising part of
+    the wall: a lookup without search (error ~ (L/n)² / radius of a fillet: < 1e-6 m for silo
+    walls)."""
+    p = wall.point_at(np.linspace(0.0, wall.length, 4 * n))
     last_at_its_height = np.append(np.diff(p[:, 1]) > 0.0, True)  # a floor's outer end, not its inner one
-    return np.ascontiguousarray(p[last_at_its_height, 1]), np.ascontiguousarray(p[last_at_its_height, 0])
+    z, r = p[last_at_its_height, 1], p[last_at_its_height, 0]
+    grid = np.linspace(z[0], z[-1], n)
+    return np.array([z[0], grid[1] - grid[0]]), np.ascontiguousarray(np.interp(grid, z, r))
 
 
 @numba.njit(cache=True)
@@ -311,16 +314,46 @@ def _stretch(x, nodes, surfaces, base, radius):
     polylines, axis first), radii with the wall's radius table (z, R) at the new height."""
     now, prev = surfaces
     zt, rt = radius
+    r_now, z_now = np.ascontiguousarray(now[:, 0]), np.ascontiguousarray(now[:, 1])
+    r_prev, z_prev = np.ascontiguousarray(prev[:, 0]), np.ascontiguousarray(prev[:, 1])
     for i in nodes:
         r, z = x[i, 0], x[i, 1]
         if z <= base:
             continue
-        h_prev = np.interp(r, prev[:, 0], prev[:, 1]) - base
+        h_prev = _interp(r, r_prev, z_prev) - base
         if h_prev <= 0.0:
             continue
-        z_new = base + (z - base) * (np.interp(r, now[:, 0], now[:, 1]) - base) / h_prev
+        z_new = base + (z - base) * (_interp(r, r_now, z_now) - base) / h_prev
         x[i, 1] = z_new
-        x[i, 0] = r * np.interp(z_new, zt, rt) / np.interp(z, zt, rt)
+        x[i, 0] = r * _radius(z_new, zt, rt) / _radius(z, zt, rt)
+
+
+@numba.njit(cache=True)
+def _radius(z, grid, R):
+    """The wall's radius at height z from the table of :func:`_radius_table` (clamped)."""
+    u = min(max((z - grid[0]) / grid[1], 0.0), R.size - 1.000001)
+    k = int(u)
+    return R[k] + (u - k) * (R[k + 1] - R[k])
+
+
+@numba.njit(cache=True)
+def _interp(x, xp, fp):
+    """np.interp for one point (bisection; numba's np.interp allocates per call), clamped
+    at the ends; xp ascending."""
+    n = xp.shape[0]
+    if x <= xp[0]:
+        return fp[0]
+    if x >= xp[n - 1]:
+        return fp[n - 1]
+    lo, hi = 0, n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) >> 1
+        if xp[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    w = (x - xp[lo]) / (xp[hi] - xp[lo])
+    return fp[lo] + w * (fp[hi] - fp[lo])
 
 
 @numba.njit(cache=True)

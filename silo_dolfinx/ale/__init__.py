@@ -10,6 +10,9 @@ The explicit solver takes Lagrangian steps (the mesh moves with the material). E
    density) and nodal velocity carried from the Lagrangian mesh to the smoothed one by a
    conservative, bound-preserving flux-form remap; material crossing the outlet leaves.
 
+With ``max_surface_slope`` > 0 a free surface steeper than that slumps (:mod:`.slump`): the
+smoothing moves its nodes, and after the remap the material follows along the top row.
+
 Then the solver rebuilds what depends on mesh and state (lumped mass by dolfinx assembly,
 volumes, stable Δt, internal force) and the model its loads (gravity on the new mass). The
 energy the remap removes (upwinding) and the energy the discharged material carries away
@@ -31,6 +34,7 @@ from mpi4py import MPI
 from silo_dolfinx.ale.remap import (RemapError, RemapReport, Remapper, cell_state, cell_volume_density,
                                     redistribute)
 from silo_dolfinx.geometry.cells import qp_volumes, tensor_nodes
+from silo_dolfinx.ale import slump
 from silo_dolfinx.ale.smoothing import Smoother
 from silo_dolfinx.ale.tracers import Tracers
 
@@ -66,7 +70,7 @@ class ALE:
         self.frequency = a.frequency
         self.smoother = Smoother(model.sm, model.contact_wall_open, laplacian_weight=a.laplacian_weight,
                                  mid_area_weight=a.mid_area_weight, sweeps=a.sweeps, predictor=a.predictor,
-                                 objective=a.smoothing_objective)
+                                 objective=a.smoothing_objective, max_surface_slope=a.max_surface_slope)
         self.remapper = Remapper(self.mesh, model.sm.facets("outlet"), a.remap_order)
         self.cn_tensor = tensor_nodes(self.mesh, s.n_cells_owned)
         self.fields = [("sig", 4)] + list(s.point_fields.items())  # the law's state, the hourglass force
@@ -90,6 +94,7 @@ class ALE:
         # one-point quadrature's cell volume 2π r_c |det J_c| is not the exact volume of
         # revolution the remap conserves mass in: densities are converted to and from it
         self._exact = (np.zeros(self.remapper.n_all), np.zeros((self.remapper.n_all, 2))) if s.nq == 1 else None
+        self._top_row = TopRow(model.sm, self.smoother, no) if self.smoother.slump_tan else None
         self.stats = ALEStats()
         self.tracers = Tracers(self, a.tracer_rows, a.tracer_columns) if a.tracer_rows * a.tracer_columns > 0 else None
         self.followers: list[Tracers] = []  # material points of the outputs (``follow``)
@@ -151,6 +156,8 @@ class ALE:
             raise InstabilityError(f"at t = {s.t:.6g} s {err}: the mesh has drifted far from the material "
                                    f"(Δt {s.dt:.3g} s, {self.frequency} steps per remap). Fix: [ale] frequency "
                                    "smaller (remap more often), or see the Δt diagnosis if Δt has fallen.") from err
+        if self._top_row is not None and self.smoother.slump is not None:  # the slumped surface's material
+            self._top_row.transfer(self.smoother.slump, self.remapper.last_volumes, rho, means, (lo, hi))
         t2 = time.perf_counter()
 
         # write back: mesh, quadrature data, velocity; rebuild what depends on them
@@ -212,3 +219,55 @@ class ALE:
                 "discharged_mass": c.allreduce(st.outflow_mass, op=MPI.SUM),
                 "smoothing_backoffs": self.smoother.backoffs,
                 "seconds": {k: c.allreduce(v, op=MPI.MAX) for k, v in st.seconds.items()}}
+
+
+class TopRow:
+    """The top row of cells in the order of the surface's segments, gathered on every rank for
+    the slump's transfer along it (:mod:`.slump`): each segment is the top edge of one owned
+    cell somewhere."""
+
+    def __init__(self, sm, smoother: Smoother, n_owned: int):
+        from dolfinx import mesh as dmesh
+
+        m = sm.mesh
+        facets = sm.facets("top")
+        m.topology.create_connectivity(1, 2)
+        f2c = m.topology.connectivity(1, 2)
+        cells = np.array([f2c.links(f)[0] for f in facets], np.int64)
+        nodes = dmesh.entities_to_geometry(m, 1, facets)
+        pos = smoother.top_position[nodes]
+        own = cells < n_owned
+        self.cells = cells[own]
+        self.segment = pos[own].min(axis=1)  # segment e joins polyline nodes e and e + 1
+        self.comm = m.comm
+        counts = np.array(self.comm.allgather(self.cells.size))
+        self.n = int(counts.sum())
+        segs = np.concatenate(self.comm.allgather(self.segment))
+        if not np.array_equal(np.sort(segs), np.arange(self.n)):
+            raise ValueError("the top surface's segments are not the top edges of one cell each: not a silo mesh")
+        self._order = np.argsort(segs)
+        self._counts = counts
+        self._displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
+
+    def transfer(self, slumped, volumes, rho, means, bounds) -> None:
+        """Move the slumped volume's material along the top row (in place on the owned cells'
+        densities ``rho`` and mass-weighted means ``means``; ``bounds`` (lo, hi) widened)."""
+        r, dz = slumped
+        dV = np.empty(r.size - 1)
+        slump.column_volumes(r, dz, dV)
+        k = means.shape[1]
+        c = self.cells
+        local = np.column_stack([rho[c] * volumes[c], volumes[c], means[c]])
+        rows = np.empty((self.n, 2 + k))
+        self.comm.Allgatherv(np.ascontiguousarray(local), [rows, self._counts * (2 + k), self._displs * (2 + k), MPI.DOUBLE])
+        rows = rows[self._order]  # by segment
+        mass, V, Q = rows[:, 0].copy(), rows[:, 1].copy(), np.ascontiguousarray(rows[:, 2:])
+        dm, dQ = np.zeros(self.n), np.zeros((self.n, k))
+        slump.top_row_transfer(dV, V, mass, Q, dm, dQ)
+        e = self.segment
+        m_new = mass[e] + dm[e]
+        means[c] = (mass[e, None] * Q[e] + dQ[e]) / m_new[:, None]
+        rho[c] = m_new / volumes[c]
+        lo, hi = bounds
+        lo[c] = np.minimum(lo[c], means[c])
+        hi[c] = np.maximum(hi[c], means[c])

@@ -61,6 +61,7 @@ import numpy as np
 from mpi4py import MPI
 
 from silo_dolfinx._mpi import reduce_scalar
+from silo_dolfinx.ale import slump
 from silo_dolfinx.geometry.cells import cycle_nodes, orientation, worst_cells
 from silo_dolfinx.geometry.wall import arclength_of, slide
 
@@ -75,7 +76,7 @@ class Smoother:
     CHECKPOINT = ("x_prev", "backoffs")
 
     def __init__(self, sm, wall, *, laplacian_weight: float = 0.5, mid_area_weight: float = 0.5, sweeps: int = 1,
-                 predictor: str = "previous", objective: str = "graded"):
+                 predictor: str = "previous", objective: str = "graded", max_surface_slope: float = 0.0):
         from dolfinx import la
 
         if laplacian_weight + mid_area_weight > 1.0 + 1e-12:
@@ -148,6 +149,13 @@ class Smoother:
         lam = s / max(s[-1], 1e-300)
         where = {g: i for i, g in enumerate(order)}
         self.top_fraction = np.array([lam[where[g]] for g in gidx[self.top_nodes]])
+        # every local top node's place in the polyline (−1: not on the top), for the slump
+        self.top_position = np.full(self.n_nodes, -1, np.int64)
+        top_local = np.nonzero(((cls == TOP) | (cls == TOP_CORNER)) & on["top"])[0]
+        self.top_position[top_local] = [where[g] for g in gidx[top_local]]
+        self._top_local = top_local
+        self.slump_tan = math.tan(math.radians(max_surface_slope)) if max_surface_slope > 0.0 else 0.0
+        self.slump = None  # (r, dz) of the polyline nodes at the last smoothing, if the surface slumped
 
         # stretched predictor: every local interior and axis node (owned and ghost: the same
         # arithmetic on the same data on every rank), the wall's radius by height, the base
@@ -213,17 +221,36 @@ class Smoother:
         """Boundary nodes on their targets, interior nodes at the predictor (all local rows)."""
         stretched = self.predictor == "stretched"
         x = (xL if self.predictor == "current" else self.x_prev).copy()
-        prev = self._top_polyline(self.x_prev).copy() if stretched else None  # (one buffer for both)
+        prev = self._top_polyline(self.x_prev).copy() if stretched else None  # (one buffer for all)
         pts = self._top_polyline(xL)
         s_top, z_top = self._top_corners(pts)
-        if stretched:  # interior and axis nodes from their previous places, with the surface
-            base = float(self.wall.point_at(_stretch_base(self.anchors, s_top, self.S0_top, self.wall.length))[0, 1])
-            _stretch(x, self.stretched, (pts, prev), base, self._radius_table)
         axis = self.axis_nodes[:0] if stretched else self.axis_nodes
         _place_boundary(x, xL, (pts, s_top, z_top), (self.X, self.outlet, self.wall_corner, self.axis_corner),
                         (self.wall_nodes, self.S0, self.anchors, self.S0_top), (axis, self.Z0, self.Z0_top),
                         (self.top_nodes, self.top_fraction), self.wall.arrays)
+        surface = self._top_polyline(x).copy() if (stretched or self.slump_tan) else None  # placed
+        self.slump = None
+        if self.slump_tan:
+            self._slump(x, surface, s_top)
+        if stretched:  # interior and axis nodes from their previous places, with the surface
+            base = float(self.wall.point_at(_stretch_base(self.anchors, s_top, self.S0_top, self.wall.length))[0, 1])
+            _stretch(x, self.stretched, (surface, prev), base, self._radius_table)
         return x
+
+    def _slump(self, x: np.ndarray, surface: np.ndarray, s_top: float) -> None:
+        """Surface segments steeper than ``max_surface_slope`` brought down to it
+        (:mod:`.slump`), in place on the top rows of ``x`` and on ``surface``; the moves kept in
+        :attr:`slump` for the remap's top-row transfer."""
+        movable = np.ones(surface.shape[0], np.bool_)
+        # the wall's top corner slides vertically only along a vertical wall
+        movable[-1] = abs(float(self.wall.point_normal_at(s_top)[1][0, 1])) < 1e-9
+        dz = np.zeros(surface.shape[0])
+        r = np.ascontiguousarray(surface[:, 0])
+        slump.slump_heights(r, np.ascontiguousarray(surface[:, 1]), movable, self.slump_tan, dz)
+        if np.any(dz != 0.0):
+            surface[:, 1] += dz
+            x[self._top_local, 1] += dz[self.top_position[self._top_local]]
+            self.slump = (r.copy(), dz)
 
     def smooth(self, xL: np.ndarray) -> np.ndarray:
         """New node positions (all local rows) for the Lagrangian positions ``xL`` (n, 2)."""
@@ -242,6 +269,7 @@ class Smoother:
                                                                          0.999 * self.min_scaled_jacobian(xL))
         if q < floor:
             xs = self._back_off(x, xL, floor)
+            self.slump = None  # the top may have moved back: its remap keeps each cell's mass
         np.copyto(self.x_prev, xs)
         return xs
 

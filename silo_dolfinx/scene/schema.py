@@ -412,6 +412,13 @@ ALE = Section(
           "position stretched with the free surface above it (each node keeps its fraction of the "
           "height between the wall's highest corner under the fill and the surface; the axis too), "
           "so that the top rows follow a crater or a surface falling at the wall."),
+        F("max_surface_slope", 0.0, "°", "The steepest free surface the ALE keeps: a steeper segment of "
+          "the top slumps (its nodes move towards each other vertically, keeping the volume under the "
+          "surface, and the material moves with them along the top row of cells), as grains roll down "
+          "a slope steeper than their angle of repose - which a cohesionless continuum at its free "
+          "surface (no pressure, no strength) does not do by itself. About the solid's angle of repose "
+          "(≈ its friction angle); 0 = off (the surface follows the material wherever it goes).",
+          lo=0.0, hi=89.0),
         C("smoothing_objective", ("graded", "uniform"), "graded",
           "graded: smooth only the distortion relative to the initial mesh (keeps its refinement); "
           "uniform: plain eqs. 3-4/3-5 (evens out element sizes)."),

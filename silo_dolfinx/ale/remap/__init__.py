@@ -194,6 +194,11 @@ class Remapper:
         self._nodal.scatter_forward()
         return acc[:, 2].copy()
 
+    @property
+    def last_volumes(self) -> np.ndarray:
+        """Exact volumes of the local cells at the end positions of the last remap."""
+        return self._vol1
+
     def courant(self, x0: np.ndarray, x1: np.ndarray) -> float:
         """Largest fraction of a cell's volume swept out of it by the motion x0 -> x1 (global)."""
         self._load(x0, x1)

@@ -1,0 +1,134 @@
+"""Free-surface slump: a granular surface steeper than its angle of repose avalanches.
+
+A cohesionless continuum at its free surface sits at the apex of its yield cone: no pressure,
+no strength - and no force either that would make a steep lip or a pit slump. Real grains
+roll down such slopes; the continuum keeps them (a pit on the axis where the flow channel
+reaches the surface, a lip at a rough wall), and a mesh whose free surface follows the
+material degenerates there (docs/validation/ch6.md, ch7.md). With ``ale.max_surface_slope``
+= θ > 0, each smoothing moves the surface's nodes vertically so that no segment of the top
+polyline is steeper than tan θ, and the remap moves the material with them, along the top
+row of cells:
+
+1. **the surface** (:func:`slump_heights`, at smoothing): Gauss-Seidel sweeps over the
+   segments; a segment steeper than tan θ has its two nodes moved towards each other by
+   dz_hi = −d W_lo/(W_hi + W_lo), dz_lo = d W_hi/(W_hi + W_lo) (d the excess drop, W the
+   nodes' r-weighted tributary lengths ∫ N_i r dr), which keeps the volume of revolution
+   under the polyline exactly; each node moves at most ``cap`` (a twentieth of its segments'
+   length) per smoothing, so that a top cell gives or takes at most a few per cent of its
+   volume per remap. A node that cannot move (a top corner on an inclined wall: it would
+   leave the wall) leaves its segment as it is.
+2. **the material** (:func:`top_row_transfer`, after the remap): the remap keeps each cell's
+   mass when a boundary node moves, so the cell under a lowered segment is compressed and
+   the one under a raised segment dilated, by the columns δV_e between the two polylines.
+   The volume −δV moves along the top row from cell to cell (a 1-D flux F_{e+½} = −Σ_{i≤e}
+   δV_i, zero past the last cell), carrying the donor cell's density as it was before the
+   slump and its intensive variables (stress, state): mass is conserved exactly (every flux
+   leaves one cell and enters the next), each cell is returned to about its density, and
+   the mixing is a convex combination (no new extrema; the bounds of the quadrature
+   redistribution are widened by the donors' values).
+
+The potential energy the slump releases is an avalanche's dissipation (not tracked: nothing
+the energy balance sums changes with it); the kinetic and elastic energy the moved mass
+carries are booked with the remap's.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+CAP = 0.05  # largest vertical move of a surface node per smoothing, as a fraction of its segments' length
+SWEEPS = 8  # Gauss-Seidel sweeps over the segments per smoothing
+
+
+@numba.njit(cache=True)
+def tributary(r, out):
+    """∫ N_i r dr of each node of a polyline with radii r (the volume of revolution under it
+    changes by 2π Σ W_i dz_i when its nodes move by dz_i vertically)."""
+    out[:] = 0.0
+    for e in range(r.size - 1):
+        a, b = r[e], r[e + 1]
+        h = abs(b - a)
+        out[e] += h * (2.0 * a + b) / 6.0
+        out[e + 1] += h * (a + 2.0 * b) / 6.0
+
+
+@numba.njit(cache=True)
+def slump_heights(r, z, movable, tan_max, dz):
+    """Vertical moves dz of the polyline nodes (r, z) (axis first) that bring its segments to
+    slopes ≤ tan_max, keeping the volume under it (module doc); returns the largest excess
+    slope left (0 when none)."""
+    n = r.size
+    W = np.empty(n)
+    tributary(r, W)
+    zz = z.copy()
+    cap = np.empty(n)
+    for i in range(n):
+        left = abs(r[i] - r[i - 1]) if i > 0 else np.inf
+        right = abs(r[i + 1] - r[i]) if i < n - 1 else np.inf
+        cap[i] = CAP * min(left, right)
+    dz[:] = 0.0
+    for _ in range(SWEEPS):
+        moved = False
+        for e in range(n - 1):
+            a, b = e, e + 1
+            if not (movable[a] and movable[b]):
+                continue
+            d = abs(zz[a] - zz[b]) - tan_max * abs(r[b] - r[a])
+            if d <= 0.0:
+                continue
+            hi, lo = (a, b) if zz[a] > zz[b] else (b, a)
+            s = W[hi] + W[lo]
+            if s <= 0.0:
+                continue
+            # the excess that both nodes can still take within their caps
+            room_hi = cap[hi] + dz[hi]  # how far it may still go down: |dz| ≤ cap
+            room_lo = cap[lo] - dz[lo]  # and up
+            d = min(d, room_hi * s / max(W[lo], 1e-300), room_lo * s / max(W[hi], 1e-300))
+            if d <= 0.0:
+                continue
+            down, up = d * W[lo] / s, d * W[hi] / s
+            dz[hi] -= down
+            dz[lo] += up
+            zz[hi] -= down
+            zz[lo] += up
+            moved = True
+        if not moved:
+            break
+    excess = 0.0
+    for e in range(n - 1):
+        excess = max(excess, abs(zz[e] - zz[e + 1]) / max(abs(r[e + 1] - r[e]), 1e-300) - tan_max)
+    return excess
+
+
+@numba.njit(cache=True)
+def column_volumes(r, dz, out):
+    """δV_e = 2π ∫ dz(r) r dr over segment e: how much the slump changed the volume of the
+    cell under it (the nodes moved vertically by dz)."""
+    for e in range(r.size - 1):
+        a, b = r[e], r[e + 1]
+        h = abs(b - a)
+        out[e] = 2.0 * np.pi * (dz[e] * h * (2.0 * a + b) + dz[e + 1] * h * (a + 2.0 * b)) / 6.0
+
+
+@numba.njit(cache=True)
+def top_row_transfer(dV, V, mass, Q, dm, dQ):
+    """Mass and intensive-variable changes (dm, and dQ (n, k) of the mass-weighted totals
+    m Q) of the top-row cells (in segment order) that move the slumped volume along the row:
+    ``V`` their volumes and ``mass`` their masses after the remap, ``Q`` their intensive
+    means. A flux leaves its donor at the density it had before the slump changed its volume,
+    m / (V − δV); at most half of a donor's mass per remap."""
+    n = dV.size
+    dm[:] = 0.0
+    dQ[:] = 0.0
+    F = 0.0
+    for e in range(n - 1):
+        F -= dV[e]  # volume moving from cell e to e + 1 (negative: from e + 1 to e)
+        donor = e if F > 0.0 else e + 1
+        M = F * mass[donor] / max(V[donor] - dV[donor], 1e-300)
+        M = max(-0.5 * mass[donor], min(0.5 * mass[donor], M))
+        dm[e] -= M
+        dm[e + 1] += M
+        for j in range(Q.shape[1]):
+            dQ[e, j] -= M * Q[donor, j]
+            dQ[e + 1, j] += M * Q[donor, j]

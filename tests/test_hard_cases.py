@@ -169,6 +169,7 @@ def test_a_discharge_until_nearly_empty_ends_cleanly(shared_tmp, comm):
     d = summary["stages"][-1]
     assert summary["status"] == "completed" and d["ended_on"] == "mesh quality"
     assert d["t_end"] < 5.0 and any("min_mesh_quality" in w for w in summary["warnings"])
+    assert "ale.max_surface_slope" in d["ended_because"]  # the fix for a surface cell, named
     assert h["discharged_mass"] > 0.8 * h["mass_at_opening"]  # nearly empty (the rest: the shoulders)
     assert h["mass_error_max"] < 1e-6 and h["finite"]
     assert 0.0 < h["min_scaled_jacobian"] < 0.1  # ended on the floor, never inverted

@@ -148,6 +148,11 @@ class Discharge(Stage):
                             f"axis {m.axis_top_height:.3g} m above the outlet). The mesh keeps all its rows and cannot "
                             "follow the fill further; results up to here are complete. (min_mesh_quality = 0 runs on "
                             "until a cell turns inside out.)")
+        ale = model.scene.ale
+        if ale.enabled and ale.max_surface_slope == 0.0:
+            self.ended_early += (" If that cell is at the free surface (a pit on the axis, a lip at a rough wall), set "
+                                 "ale.max_surface_slope to about the solid's friction angle: the surface then slumps "
+                                 "as grains would, and the run goes on.")
         return True
 
     def record(self, model) -> dict:

@@ -27,6 +27,9 @@ row of cells:
    the mixing is a convex combination (no new extrema; the bounds of the quadrature
    redistribution are widened by the donors' values).
 
+:class:`TopRow` finds the top row's cells in the order of the segments and gathers what the
+transfer reads on every rank (a few dozen cells: one Allgatherv per slumping remap).
+
 The potential energy the slump releases is an avalanche's dissipation (not tracked: nothing
 the energy balance sums changes with it); the kinetic and elastic energy the moved mass
 carries are booked with the remap's.
@@ -36,6 +39,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from mpi4py import MPI
 
 CAP = 0.05  # largest vertical move of a surface node per smoothing, as a fraction of its segments' length
 SWEEPS = 8  # Gauss-Seidel sweeps over the segments per smoothing
@@ -132,3 +136,55 @@ def top_row_transfer(dV, V, mass, Q, dm, dQ):
         for j in range(Q.shape[1]):
             dQ[e, j] -= M * Q[donor, j]
             dQ[e + 1, j] += M * Q[donor, j]
+
+
+class TopRow:
+    """The top row of cells in the order of the surface's segments, gathered on every rank for
+    the slump's transfer along it (:mod:`.slump`): each segment is the top edge of one owned
+    cell somewhere."""
+
+    def __init__(self, sm, smoother, n_owned: int):
+        from dolfinx import mesh as dmesh
+
+        m = sm.mesh
+        facets = sm.facets("top")
+        m.topology.create_connectivity(1, 2)
+        f2c = m.topology.connectivity(1, 2)
+        cells = np.array([f2c.links(f)[0] for f in facets], np.int64)
+        nodes = dmesh.entities_to_geometry(m, 1, facets)
+        pos = smoother.top_position[nodes]
+        own = cells < n_owned
+        self.cells = cells[own]
+        self.segment = pos[own].min(axis=1)  # segment e joins polyline nodes e and e + 1
+        self.comm = m.comm
+        counts = np.array(self.comm.allgather(self.cells.size))
+        self.n = int(counts.sum())
+        segs = np.concatenate(self.comm.allgather(self.segment))
+        if not np.array_equal(np.sort(segs), np.arange(self.n)):
+            raise ValueError("the top surface's segments are not the top edges of one cell each: not a silo mesh")
+        self._order = np.argsort(segs)
+        self._counts = counts
+        self._displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
+
+    def transfer(self, slumped, volumes, rho, means, bounds) -> None:
+        """Move the slumped volume's material along the top row (in place on the owned cells'
+        densities ``rho`` and mass-weighted means ``means``; ``bounds`` (lo, hi) widened)."""
+        r, dz = slumped
+        dV = np.empty(r.size - 1)
+        column_volumes(r, dz, dV)
+        k = means.shape[1]
+        c = self.cells
+        local = np.column_stack([rho[c] * volumes[c], volumes[c], means[c]])
+        rows = np.empty((self.n, 2 + k))
+        self.comm.Allgatherv(np.ascontiguousarray(local), [rows, self._counts * (2 + k), self._displs * (2 + k), MPI.DOUBLE])
+        rows = rows[self._order]  # by segment
+        mass, V, Q = rows[:, 0].copy(), rows[:, 1].copy(), np.ascontiguousarray(rows[:, 2:])
+        dm, dQ = np.zeros(self.n), np.zeros((self.n, k))
+        top_row_transfer(dV, V, mass, Q, dm, dQ)
+        e = self.segment
+        m_new = mass[e] + dm[e]
+        means[c] = (mass[e, None] * Q[e] + dQ[e]) / m_new[:, None]
+        rho[c] = m_new / volumes[c]
+        lo, hi = bounds
+        lo[c] = np.minimum(lo[c], means[c])
+        hi[c] = np.maximum(hi[c], means[c])

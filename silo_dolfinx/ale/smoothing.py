@@ -17,7 +17,9 @@ axis
 top (free surface)
     on the *current* material surface (the polyline of the Lagrangian top nodes, so the
     surface follows the material in its normal direction), at their initial fractions of
-    its arclength (relaxed tangentially);
+    its arclength (relaxed tangentially); with ``max_surface_slope`` > 0, then moved
+    vertically where the surface is steeper than that (the slump, :mod:`.slump`: the top
+    corner at a wall only if the wall is vertical there);
 top corners (top ∩ wall, top ∩ axis)
     Lagrangian;
 interior
@@ -29,7 +31,8 @@ interior
 
         z' = z_b + (z − z_b) (T(r) − z_b) / (T_prev(r) − z_b),   r' = r R(z') / R(z),
 
-    T the current material surface, T_prev the previous smoothed one, R the wall's radius
+    T the current surface (the top nodes as placed, slumped if that is on), T_prev the
+    previous smoothed one, R the wall's radius
     (so a node in a converging hopper stays inside it); the axis nodes take the same rule.
     The interior then follows the draining surface, as the wall and axis already do: with
     ``previous`` only the sweeps' slow diffusion brings it down, and the top row of cells is
@@ -339,7 +342,8 @@ def _radius_table(wall, n: int = 4096) -> tuple[np.ndarray, np.ndarray]:
 def _stretch(x, nodes, surfaces, base, radius):
     """The ``stretched`` predictor, in place on the rows ``nodes`` of ``x``: heights above
     ``base`` scaled with the free surface above them (surfaces = (current, previous) top
-    polylines, axis first), radii with the wall's radius table (z, R) at the new height."""
+    polylines, axis first), radii with the wall's radius table (:func:`_radius_table`) at the
+    new height."""
     now, prev = surfaces
     zt, rt = radius
     r_now, z_now = np.ascontiguousarray(now[:, 0]), np.ascontiguousarray(now[:, 1])

@@ -46,15 +46,21 @@ SWEEPS = 8  # Gauss-Seidel sweeps over the segments per smoothing
 
 
 @numba.njit(cache=True)
+def _segment_weights(a, b):
+    """(∫ N_a r dr, ∫ N_b r dr) over a segment from radius a to b (linear N)."""
+    h = abs(b - a)
+    return h * (2.0 * a + b) / 6.0, h * (a + 2.0 * b) / 6.0
+
+
+@numba.njit(cache=True)
 def tributary(r, out):
     """∫ N_i r dr of each node of a polyline with radii r (the volume of revolution under it
     changes by 2π Σ W_i dz_i when its nodes move by dz_i vertically)."""
     out[:] = 0.0
     for e in range(r.size - 1):
-        a, b = r[e], r[e + 1]
-        h = abs(b - a)
-        out[e] += h * (2.0 * a + b) / 6.0
-        out[e + 1] += h * (a + 2.0 * b) / 6.0
+        wa, wb = _segment_weights(r[e], r[e + 1])
+        out[e] += wa
+        out[e + 1] += wb
 
 
 @numba.njit(cache=True)
@@ -110,9 +116,8 @@ def column_volumes(r, dz, out):
     """δV_e = 2π ∫ dz(r) r dr over segment e: how much the slump changed the volume of the
     cell under it (the nodes moved vertically by dz)."""
     for e in range(r.size - 1):
-        a, b = r[e], r[e + 1]
-        h = abs(b - a)
-        out[e] = 2.0 * np.pi * (dz[e] * h * (2.0 * a + b) + dz[e + 1] * h * (a + 2.0 * b)) / 6.0
+        wa, wb = _segment_weights(r[e], r[e + 1])
+        out[e] = 2.0 * np.pi * (dz[e] * wa + dz[e + 1] * wb)
 
 
 @numba.njit(cache=True)

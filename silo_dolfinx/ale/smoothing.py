@@ -228,15 +228,16 @@ class Smoother:
         pts = self._top_polyline(xL)
         s_top, z_top = self._top_corners(pts)
         axis = self.axis_nodes[:0] if stretched else self.axis_nodes
+        s_c = _stretch_start(self.anchors, s_top, self.S0_top, self.wall.length)
         _place_boundary(x, xL, (pts, s_top, z_top), (self.X, self.outlet, self.wall_corner, self.axis_corner),
-                        (self.wall_nodes, self.S0, self.anchors, self.S0_top), (axis, self.Z0, self.Z0_top),
+                        (self.wall_nodes, self.S0, s_c, self.S0_top), (axis, self.Z0, self.Z0_top),
                         (self.top_nodes, self.top_fraction), self.wall.arrays)
         surface = self._top_polyline(x).copy() if (stretched or self.slump_tan) else None  # placed
         self.slump = None
         if self.slump_tan:
             self._slump(x, surface, s_top)
         if stretched:  # interior and axis nodes from their previous places, with the surface
-            base = float(self.wall.point_at(_stretch_base(self.anchors, s_top, self.S0_top, self.wall.length))[0, 1])
+            base = float(self.wall.point_at(s_c)[0, 1])
             _stretch(x, self.stretched, (surface, prev), base, self._radius_table)
         return x
 
@@ -320,7 +321,7 @@ def _flag_cells_below(x, cn, orient, n, floor, flag):
                 break
 
 
-def _stretch_base(anchors: np.ndarray, s_top: float, S0_top: float, length: float) -> float:
+def _stretch_start(anchors: np.ndarray, s_top: float, S0_top: float, length: float) -> float:
     """Arclength of the highest wall anchor under the top corner (then and now): where the
     wall rule's stretching starts (below it the wall nodes hold their arclength)."""
     below = anchors[anchors < min(s_top, S0_top) - 1e-9 * length]
@@ -396,12 +397,13 @@ def _place_boundary(x, xL, top, fixed, wall_rule, axis_rule, top_rule, wall_geom
     wall corner is at arclength ``s_top`` and axis corner at height ``z_top``.
 
     top = (pts, s_top, z_top); fixed = (X, outlet, wall corner, axis corner nodes);
-    wall_rule = (wall nodes, their initial arclengths S0, anchors, S0 of the top corner);
+    wall_rule = (wall nodes, their initial arclengths S0, the arclength s_c where the stretching
+    starts (:func:`_stretch_start`), S0 of the top corner);
     axis_rule = (axis nodes, initial heights Z0, Z0 of the top); top_rule = (top nodes,
     their arclength fractions); wall_geometry = :attr:`Wall.arrays`."""
     pts, s_top, z_top = top
     X, outlet, corners_wall, corners_axis = fixed
-    wall_nodes, S0, anchors, S0_top = wall_rule
+    wall_nodes, S0, s_c, S0_top = wall_rule
     axis_nodes, Z0, Z0_top = axis_rule
     top_nodes, top_fraction = top_rule
     kind, geo, s0, n_end, length = wall_geometry
@@ -415,11 +417,6 @@ def _place_boundary(x, xL, top, fixed, wall_rule, axis_rule, top_rule, wall_geom
     # wall: Eulerian below the highest anchor under the top corner, stretched above it
     nw = wall_nodes.size
     if nw:
-        tol = 1e-9 * length
-        s_c = 0.0
-        for a in anchors:
-            if a < min(s_top, S0_top) - tol:
-                s_c = max(s_c, a)
         stretch = (s_top - s_c) / max(S0_top - s_c, 1e-300)
         s = np.empty(nw)
         p = np.empty((nw, 2))

@@ -315,6 +315,39 @@ def test_nodes_slide_past_the_abrupt_corner(comm):
 
 
 
+@pytest.mark.parametrize("scene, along", [("flat_bottom_ch6.toml", False), ("hopper_ch4.toml", True)])
+def test_the_node_at_the_outlet_edge_is_held_to_the_walls_line(comm, scene, along):
+    """The wall node at the outlet edge, dragged by the flow past the wall's end: on a flat
+    bottom, pulled down and inwards, it keeps its floor (v_z = 0) and slides inwards without
+    friction (v_r kept); along a hopper wall it leaves in the wall's direction untouched. With
+    the wall ending at the edge it fell free as soon as it slid a round-off past it (the flow
+    of ch. 6 switched between 0.9 and 2.5 kg/s at a moment set by round-off)."""
+    sc = load_scene(SCENES / scene, ["geometry.element_size=0.1"])
+    m = SiloModel(sc, mesh_scene(sc, comm))
+    s = m.solver
+    c = m.contact
+    x = s.mesh.geometry.x
+    r0 = m.outline.outlet_radius
+    k = np.nonzero(np.hypot(x[c.nodes, 0] - r0, x[c.nodes, 1]) < 1e-9)[0]
+    assert comm.allreduce(int(k.size), op=MPI.SUM) == 1
+    lead = m.outline.under_outlet_edge()
+    down = np.subtract(lead.start, lead.end) / np.linalg.norm(np.subtract(lead.start, lead.end))  # past the edge
+    v = np.zeros((s.n_nodes, 2))
+    dt = 1e-3
+    if along:
+        v[c.dofs[k]] = 0.5 * down  # along the wall, past its end
+    else:
+        v[c.dofs[k]] = (-0.05, -1.0)  # down through the floor and inwards
+    v0 = v.copy()
+    c.apply(x, v, s.mass, dt, dt)
+    if k.size:
+        if along:
+            assert np.allclose(v[c.dofs[k]], v0[c.dofs[k]], atol=1e-12)
+        else:
+            assert abs(v[c.dofs[k], 1][0]) < 1e-12 and abs(v[c.dofs[k], 0][0] + 0.05) < 1e-12
+            assert c.in_contact[k][0]
+
+
 def test_eq_7_1_discharge_slipping_nodes_carry_mu_of_their_slip_speed(shared_tmp, comm):
     """A coarse bin-hopper discharge with eq. 7-1 friction (the ch. 7 dynamic scene: μs 0.67,
     μk 0.3, ϖ 2 s/m; bin shortened to 1 m, h 0.05, K0 start, 1 m/s controlled outlet ramped in

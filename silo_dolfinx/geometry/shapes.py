@@ -78,14 +78,14 @@ class Outline:
         t /= np.linalg.norm(t)
         return Wall(self.wall.pieces + [Segment(tuple(end), tuple(end + ext * t))])
 
-    def under_outlet_edge(self) -> Segment:
-        """The wall continued straight beyond the outlet edge, half the outlet's radius under
-        the outlet: the contact's support for the node at the outlet edge (WallFriction)."""
+    def under_outlet_edge(self, length: float) -> Segment:
+        """The wall continued straight beyond the outlet edge by ``length``: the contact's
+        support for the node at the outlet edge (WallFriction)."""
         first = self.wall.pieces[0]
         start = np.asarray(first.start, float)
         t = start - self.wall.point_at(1e-6 * self.wall.length)[0]
         t /= np.linalg.norm(t)
-        return Segment(tuple(start + 0.5 * self.outlet_radius * t), tuple(start))
+        return Segment(tuple(start + length * t), tuple(start))
 
     def volume(self, z_top: float | None = None) -> float:
         """Exact volume of revolution of the material below ``z_top`` (default: the fill)."""

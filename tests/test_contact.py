@@ -319,7 +319,8 @@ def test_nodes_slide_past_the_abrupt_corner(comm):
 def test_the_node_at_the_outlet_edge_is_held_to_the_walls_line(comm, scene, along):
     """The wall node at the outlet edge, dragged by the flow past the wall's end: on a flat
     bottom, pushed down and inwards, it keeps its floor (v_z = 0; the wall's friction may hold
-    it, it never speeds it up); along a hopper wall it leaves in the wall's direction untouched.
+    it, it never speeds it up); a hopper's wall ends at the edge, and its edge node leaves in
+    the wall's direction untouched.
     With the wall ending at the edge it fell free as soon as it slid a round-off past it (the
     flow of ch. 6 switched between 0.9 and 2.5 kg/s at a moment set by round-off)."""
     sc = load_scene(SCENES / scene, ["geometry.element_size=0.1"])
@@ -330,9 +331,13 @@ def test_the_node_at_the_outlet_edge_is_held_to_the_walls_line(comm, scene, alon
     r0 = m.outline.outlet_radius
     k = np.nonzero(np.hypot(x[c.nodes, 0] - r0, x[c.nodes, 1]) < 1e-9)[0]
     assert comm.allreduce(int(k.size), op=MPI.SUM) == 1
-    lead = c.wall.pieces[0]  # the continuation: it ends at the outlet edge
-    assert np.allclose(lead.end, (r0, 0.0)) and 0.0 < lead.length < r0
-    past = np.subtract(lead.start, lead.end) / lead.length
+    first = c.wall.pieces[0]
+    if along:  # a hopper's wall ends at the outlet edge
+        assert np.allclose(first.start, (r0, 0.0))
+        past = np.subtract(first.start, first.end) / first.length
+    else:  # a floor continues past it, by a quarter of the outlet's shortest edge
+        assert np.allclose(first.end, (r0, 0.0)) and 0.0 < first.length < 0.5 * r0
+        past = np.subtract(first.start, first.end) / first.length
     v = np.zeros((s.n_nodes, 2))
     dt = 1e-3
     push = 0.5 * past if along else np.array([-0.05, -1.0])  # along the wall past its end / down through the floor

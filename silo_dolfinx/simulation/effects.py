@@ -161,10 +161,11 @@ class WallFriction(Effect):
     #: flow switched, at a moment set by round-off, between two rates (ch. 6, h 0.02 m: 0.91
     #: kg/s, Beverloo's, and 2.5 kg/s, a third of it the cell beside the outlet sheared out;
     #: docs/validation/ch6.md). The smoothing puts the node back at every remap, so a short
-    #: continuation holds it. Not longer, nor frictionless: half the outlet radius without
-    #: friction let the edge node of the ch. 8.4 flat bottom slide 2.5 cells inwards along the
-    #: outlet plane, the outlet jet ran at 3.3 m/s and the run ended on its mesh 2.4 s after
-    #: opening. With the wall's friction the node at the joint keeps the friction it had.
+    #: continuation holds it. With the wall's friction, the node at the joint keeps the
+    #: friction it had (frictionless, it lost the floor's friction in filling and changed the
+    #: ch. 6 fill's slip-stick realisation). (The ch. 8.4 flat bottom's coaxial outlet, held
+    #: so, accelerates and its run ends 2.4 s after opening, with this length or half the
+    #: outlet radius: open, docs/validation/ch8.md.)
     LEAD_IN = 0.25
 
     def __init__(self, model):

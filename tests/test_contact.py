@@ -334,10 +334,9 @@ def test_the_node_at_the_outlet_edge_is_held_to_the_walls_line(comm, scene, alon
     first = c.wall.pieces[0]
     if along:  # a hopper's wall ends at the outlet edge
         assert np.allclose(first.start, (r0, 0.0))
-        past = np.subtract(first.start, first.end) / first.length
     else:  # a floor continues past it, by a quarter of the outlet's shortest edge
         assert np.allclose(first.end, (r0, 0.0)) and 0.0 < first.length < 0.5 * r0
-        past = np.subtract(first.start, first.end) / first.length
+    past = np.subtract(first.start, first.end) / first.length
     v = np.zeros((s.n_nodes, 2))
     dt = 1e-3
     push = 0.5 * past if along else np.array([-0.05, -1.0])  # along the wall past its end / down through the floor

@@ -408,6 +408,20 @@ class SiloMesh:
         """Local indices of the facets tagged ``name`` (wall, outlet, top, axis)."""
         return self.facet_tags.find(FACET_TAGS[name])
 
+    def shortest_facet(self, name: str) -> float:
+        """Length of the shortest facet tagged ``name`` over all ranks (0 if there is none)."""
+        from dolfinx import mesh as dmesh
+        from mpi4py import MPI
+
+        facets = self.facets(name)
+        local = np.inf
+        if len(facets):
+            x = self.mesh.geometry.x
+            nodes = dmesh.entities_to_geometry(self.mesh, self.mesh.topology.dim - 1, facets)
+            local = float(np.linalg.norm(x[nodes[:, 1], :2] - x[nodes[:, 0], :2], axis=1).min())
+        edge = self.mesh.comm.allreduce(local, op=MPI.MIN)
+        return edge if np.isfinite(edge) else 0.0
+
     def nodes_on(self, name: str) -> np.ndarray:
         """Local geometry-node indices on the facets tagged ``name`` (owned and ghost)."""
         from dolfinx import mesh as dmesh

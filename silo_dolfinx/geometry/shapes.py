@@ -86,8 +86,7 @@ class Outline:
         if not (isinstance(first, Segment) and abs(first.end[1] - first.start[1]) <= 1e-12 * first.length):
             return None
         start = np.asarray(first.start, float)
-        t = start - self.wall.point_at(1e-6 * self.wall.length)[0]
-        t /= np.linalg.norm(t)
+        t = (start - np.asarray(first.end, float)) / first.length
         return Segment(tuple(start + length * t), tuple(start))
 
     def volume(self, z_top: float | None = None) -> float:

@@ -172,25 +172,11 @@ class WallFriction(Effect):
         s = model.solver
         self.law = FrictionLaw.from_wall(model.scene.wall)
         wall = model.contact_wall_open
-        lead = model.outline.under_outlet_edge(self.LEAD_IN * _shortest_edge(model.sm, "outlet"))
+        lead = model.outline.under_outlet_edge(self.LEAD_IN * model.sm.shortest_facet("outlet"))
         if lead is not None and lead.length > 0.0:
             wall = Wall([lead] + list(wall.pieces))
         self.contact = WallContact(wall, model.wall_nodes, s.node_dof[model.wall_nodes], [self.law] * len(wall.pieces))
         s.contacts.append(self.contact)
-
-
-def _shortest_edge(sm, name: str) -> float:
-    """Length of the shortest facet tagged ``name`` over all ranks (0 if there is none)."""
-    from dolfinx import mesh as dmesh
-
-    facets = sm.facets(name)
-    local = np.inf
-    if len(facets):
-        x = sm.mesh.geometry.x
-        nodes = dmesh.entities_to_geometry(sm.mesh, sm.mesh.topology.dim - 1, facets)
-        local = float(np.linalg.norm(x[nodes[:, 1], :2] - x[nodes[:, 0], :2], axis=1).min())
-    edge = sm.mesh.comm.allreduce(local, op=MPI.MIN)
-    return edge if np.isfinite(edge) else 0.0
 
 
 class OutletGate(Effect):

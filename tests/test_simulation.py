@@ -59,6 +59,36 @@ def test_results_folder_contract(shared_tmp, comm):
     assert float(energy[-1]["gravity_work"]) > 0 and float(energy[-1]["plastic"]) >= 0
 
 
+def test_a_fresh_run_replaces_an_earlier_runs_results_and_nothing_else(shared_tmp, comm):
+    """Re-running into a results folder must not leave the earlier run's files beside the new
+    ones: a shorter run kept the longer one's later field snapshots (which `silo report` would
+    read as one run), a run without a discharge its outlet.csv. Files the package does not write
+    stay; a folder that never held a run (no summary.json) is not touched."""
+    from silo_dolfinx.output import Results
+
+    earlier, plain = shared_tmp / "earlier", shared_tmp / "plain"
+    theirs = ["summary.json", "outlet.csv", "wall_profile_discharge.csv", "report.md", "spectra.png",
+              "fields/snapshot_0009.npz", "fields/nodes.bp/md.0", "checkpoint/rank0.npz"]
+    kept = ["notes.txt", "my_table.csv"]
+    if comm.rank == 0:
+        for name in theirs + kept:
+            for folder in (earlier, plain):
+                if folder is plain and name == "summary.json":
+                    continue
+                (folder / name).parent.mkdir(parents=True, exist_ok=True)
+                (folder / name).write_text("{}" if name == "summary.json" else "x")
+    comm.barrier()
+    sc = small_scene()
+    for folder in (earlier, plain):
+        Results(folder, sc, comm).finish("completed")
+    comm.barrier()
+    left = sorted(str(f.relative_to(earlier)) for f in earlier.rglob("*") if f.is_file())
+    assert left == sorted(kept + ["scene.toml", "summary.json"])
+    assert json.loads((earlier / "summary.json").read_text())["status"] == "completed"  # this run's
+    untouched = sorted(str(f.relative_to(plain)) for f in plain.rglob("*") if f.is_file())
+    assert untouched == sorted([n for n in theirs if n != "summary.json"] + kept + ["scene.toml", "summary.json"])
+
+
 def test_serial_and_parallel_runs_agree(shared_tmp, comm):
     """Same scene on COMM_SELF and COMM_WORLD: same steps, same energies (round-off)."""
     from mpi4py import MPI

@@ -183,8 +183,10 @@ def markdown() -> str:
            "for ParaView - `nodes.bp`, `cells.bp`, and `nodes_resumedN.bp`, `cells_resumedN.bp` for the part after "
            "the N-th resumption - and `snapshot_NNNN.npz` for `silo report`), `checkpoint/` while the run goes "
            "(per-rank state every `output.checkpoint_interval` s of wall-clock, for `silo run --resume FOLDER`; "
-           "removed when the run completes), PNG figures and `report.md`. Read any CSV with "
-           "`silo_dolfinx.output.read_csv(path)`.", ""]
+           "removed when the run completes), PNG figures and `report.md`. A fresh run into the folder of an earlier "
+           "run (one with a `summary.json`) first removes that run's results - the files named here, `fields/`, "
+           "`checkpoint/`, PNG figures, `report.md` - so that none of them is read as the new run's; files of other "
+           "names are left alone. Read any CSV with `silo_dolfinx.output.read_csv(path)`.", ""]
     for f in FILES:
         out += [f"## `{f.pattern}`", "", f.doc, "", "| column | unit | meaning |", "|---|---|---|"]
         out += [f"| `{c.name}` | {c.unit} | {c.doc.replace('|', chr(92) + '|')} |" for c in f.columns]

@@ -76,7 +76,9 @@ class Results:
     ``resume``: the checkpoint a killed run continues from (:mod:`silo_dolfinx.checkpoint`):
     the summary so far is kept (status back to ``running``, the resumption listed under
     ``resumed``), every CSV the checkpoint recorded is cut back to its length then and appended
-    to, and the wall-clock counts on from the checkpoint's."""
+    to, and the wall-clock counts on from the checkpoint's. A fresh run into the folder of an
+    earlier run first removes what that run wrote (:meth:`clear_earlier_run`), so that no file of
+    it is read as this run's."""
 
     def __init__(self, folder: str | Path, scene, comm, resume: dict | None = None):
         self.folder = Path(folder)
@@ -91,6 +93,7 @@ class Results:
             self._resume(resume)
             return
         if self.root:
+            self.clear_earlier_run(self.folder)
             self.folder.mkdir(parents=True, exist_ok=True)
             (self.folder / "scene.toml").write_text(scene.to_toml())
         comm.barrier()
@@ -106,6 +109,33 @@ class Results:
             "warnings": list(scene.warnings),
         }
         self.write_summary()
+
+    @staticmethod
+    def clear_earlier_run(folder: Path) -> list[str]:
+        """Remove the results of an earlier run in ``folder`` (one holding a ``summary.json``):
+        its CSV files (those :mod:`.schema` names), field output, checkpoint, figures, report,
+        summary and scene. Otherwise a shorter run would leave the longer one's later field
+        snapshots, or a run without a discharge its outlet.csv, beside its own. Files of other
+        names are left alone, and so is a folder that is not a results folder. Returns what was
+        removed (rank 0 only)."""
+        import shutil
+
+        from silo_dolfinx.output.schema import for_file
+
+        if not (folder / "summary.json").is_file():
+            return []
+        ours = {"summary.json", "scene.toml", "report.md", "fields", "checkpoint"}
+        gone = sorted(f.name for f in folder.iterdir()
+                      if f.name in ours or f.suffix == ".png" or (f.suffix == ".csv" and for_file(f.name)))
+        for name in gone:
+            path = folder / name
+            if path.is_dir():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+        print(f"silo: {folder} held an earlier run: its {len(gone)} results (CSV files, fields, figures, "
+              "summary) are replaced by this run's", flush=True)
+        return gone
 
     def _resume(self, ck: dict) -> None:
         self.summary = json.loads((self.folder / "summary.json").read_text())

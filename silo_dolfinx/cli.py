@@ -41,7 +41,7 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument("scene", nargs="?", help="scene file (TOML); not with --resume")
     sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
                     help="override a scene key (repeatable), e.g. --set material.density=1500")
-    sp.add_argument("--out", help="results folder (created; files are overwritten)")
+    sp.add_argument("--out", help="results folder (created; an earlier run's results in it are replaced)")
     sp.add_argument("--resume", metavar="FOLDER",
                     help="continue the killed run in FOLDER from its last checkpoint (its own scene.toml; as many "
                     "ranks as wrote it)")

@@ -106,9 +106,10 @@ def main(argv: list[str] | None = None) -> int:
 def _user_errors():
     from silo_dolfinx.geometry.mesher import MeshingError
     from silo_dolfinx.checkpoint import CheckpointError
+    from silo_dolfinx.output.writer import ResultsFolderBusy
     from silo_dolfinx.solver import InstabilityError
 
-    return (MeshingError, InstabilityError, CheckpointError)
+    return (MeshingError, InstabilityError, CheckpointError, ResultsFolderBusy)
 
 
 def _abort_other_ranks() -> None:

@@ -89,6 +89,32 @@ def test_a_fresh_run_replaces_an_earlier_runs_results_and_nothing_else(shared_tm
     assert untouched == sorted([n for n in theirs if n != "summary.json"] + kept + ["scene.toml", "summary.json"])
 
 
+def test_a_run_is_refused_a_folder_another_run_is_writing_into(shared_tmp, comm):
+    """Two runs started into one folder would delete and interleave each other's files: a
+    fresh run is refused (on every rank, naming the folder and the fix) while the folder's
+    summary says "running" and was rewritten within the last LIVE heartbeats; once it is
+    older (a run killed outright) the folder is free again."""
+    import os
+    import time
+
+    from silo_dolfinx.output import Results
+    from silo_dolfinx.output.writer import ResultsFolderBusy
+
+    live = shared_tmp / "live"
+    sc = small_scene()
+    Results(live, sc, comm)  # running: its summary was just written
+    comm.barrier()
+    with pytest.raises(ResultsFolderBusy, match="still writing into this folder.*Fix: give this run another --out"):
+        Results(live, sc, comm)
+    assert (live / "scene.toml").is_file()  # nothing of the live run was removed
+    comm.barrier()
+    if comm.rank == 0:  # the live run killed outright long ago
+        old = time.time() - 2 * Results.LIVE * Results.HEARTBEAT
+        os.utime(live / "summary.json", (old, old))
+    comm.barrier()
+    Results(live, sc, comm).finish("completed")
+
+
 def test_serial_and_parallel_runs_agree(shared_tmp, comm):
     """Same scene on COMM_SELF and COMM_WORLD: same steps, same energies (round-off)."""
     from mpi4py import MPI

@@ -186,7 +186,8 @@ def markdown() -> str:
            "removed when the run completes), PNG figures and `report.md`. A fresh run into the folder of an earlier "
            "run (one with a `summary.json`) first removes that run's results - the files named here, `fields/`, "
            "`checkpoint/`, PNG figures, `report.md` - so that none of them is read as the new run's; files of other "
-           "names are left alone. Read any CSV with `silo_dolfinx.output.read_csv(path)`.", ""]
+           "names are left alone. It is refused while another run is still writing into the folder (its summary "
+           "says `running` and was rewritten within the last minute). Read any CSV with `silo_dolfinx.output.read_csv(path)`.", ""]
     for f in FILES:
         out += [f"## `{f.pattern}`", "", f.doc, "", "| column | unit | meaning |", "|---|---|---|"]
         out += [f"| `{c.name}` | {c.unit} | {c.doc.replace('|', chr(92) + '|')} |" for c in f.columns]

@@ -70,6 +70,10 @@ def _fmt(x):
     return x
 
 
+class ResultsFolderBusy(RuntimeError):
+    """A fresh run was started in a folder another run is still writing into."""
+
+
 class Results:
     """Writer of one results folder (collective: create on every rank).
 
@@ -92,6 +96,9 @@ class Results:
         if resume is not None:
             self._resume(resume)
             return
+        busy = comm.bcast(self.live_run(self.folder) if self.root else None, root=0)
+        if busy:  # refused on every rank, before anything is touched
+            raise ResultsFolderBusy(busy)
         if self.root:
             self.clear_earlier_run(self.folder)
             self.folder.mkdir(parents=True, exist_ok=True)
@@ -109,6 +116,23 @@ class Results:
             "warnings": list(scene.warnings),
         }
         self.write_summary()
+
+    @classmethod
+    def live_run(cls, folder: Path) -> str | None:
+        """Why ``folder`` must not be started afresh: a run is still writing into it (its
+        summary says "running" and was rewritten within LIVE heartbeats); None if it may."""
+        path = folder / "summary.json"
+        try:
+            status = json.loads(path.read_text()).get("status")
+            age = time.time() - path.stat().st_mtime
+        except (OSError, ValueError):
+            return None
+        if status != "running" or age > cls.LIVE * cls.HEARTBEAT:
+            return None
+        return (f"{folder}: a run is still writing into this folder (its summary.json says \"running\", "
+                f"updated {age:.0f} s ago; a run records its progress every {cls.HEARTBEAT:.0f} s). Fix: give this "
+                f"run another --out, or stop that one first; a run killed outright frees the folder "
+                f"{cls.LIVE * cls.HEARTBEAT:.0f} s after its last record.")
 
     @staticmethod
     def clear_earlier_run(folder: Path) -> list[str]:
@@ -183,6 +207,7 @@ class Results:
         self.write_summary()
 
     HEARTBEAT = 10.0  # s of wall-clock between the progress records in summary.json
+    LIVE = 6  # a "running" summary rewritten within this many heartbeats belongs to a live run
 
     def heartbeat(self, **progress) -> None:
         """Record how far the run has come (stage, t_reached, steps) in summary.json, at most every

@@ -195,6 +195,7 @@ def test_an_arch_over_the_outlet_stops_cleanly_with_its_cause(shared_tmp, comm):
     assert h["finite"]
     o = read_csv(out / "outlet.csv")
     assert o["t"][-1] - o["t"][0] < 1.0  # stopped within the discharge, not at its end
+    assert abs(summary["t_reached"] - o["t"][-1]) < 0.01  # where it stopped (outlet rows every 5 ms)
 
 
 def mpirun(ranks: int) -> list[str]:

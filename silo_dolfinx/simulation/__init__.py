@@ -58,17 +58,18 @@ def run(scene, out: str | Path, comm=None, *, progress_every: float = 5.0, resum
             _finish(model, results, stages)
             checkpoints.finish()
     except InstabilityError as err:
+        _record_reach(results, model)
         results.finish("failed", str(err))
         _all_ranks_or_abort(guard, err)
         raise
     except KeyboardInterrupt as err:  # SIGINT or SIGTERM (stages.RunInterrupted), or Ctrl-C outside the loop
-        t = model.solver.t if model is not None else 0.0
-        results.summary["t_reached"] = t
+        t = _record_reach(results, model)
         results.finish("interrupted", f"{err or 'stopped by SIGINT'} at t = {t:.6g} s (stage "
                        f"{results.summary.get('stage', '-')}); its last checkpoint resumes it: silo run --resume {out}")
         _all_ranks_or_abort(guard, err)
         raise
     except BaseException as err:
+        _record_reach(results, model)
         results.finish("failed", f"{type(err).__name__}: {err}")
         _all_ranks_or_abort(guard, err)
         raise
@@ -115,13 +116,21 @@ def _finish(model: SiloModel, results: Results, stages: list[dict]) -> None:
     e = s.global_energy()
     results.summary["warnings"] += _dilation_warnings(model.scene, stages) + [st["ended_because"] for st in stages
                                                                              if "ended_because" in st]
-    results.update(stages=stages, steps=s.steps, rejected_steps=s.rejected, simulated_time=s.t,
+    results.update(stages=stages, steps=s.steps, rejected_steps=s.rejected, simulated_time=s.t, t_reached=s.t,
                    energy={k: getattr(e, k) for k in ("kinetic", "elastic", "plastic", "viscous", "damping",
                                                       "gravity", "external", "contact")},
                    energy_balance_error=e.relative_error(s.energy_scale),
                    energy_balance_error_max=model.outputs.max_abs_balance / max(s.energy_scale, 1e-300),
                    steps_per_second=s.steps / max(time.time() - results.started, 1e-9))
     results.finish("completed")
+
+
+def _record_reach(results: Results, model: SiloModel | None) -> float:
+    """The summary's ``t_reached`` at the end of a run however it ended (between heartbeats it
+    lags by up to 10 s of wall-clock); the time reached."""
+    t = model.solver.t if model is not None else results.summary.get("t_reached", 0.0)
+    results.summary["t_reached"] = t
+    return t
 
 
 DILATION_WARNING = 0.5  # a cell below this fraction of the solid's density is no granular solid

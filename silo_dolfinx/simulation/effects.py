@@ -163,9 +163,9 @@ class WallFriction(Effect):
     #: docs/validation/ch6.md). The smoothing puts the node back at every remap, so a short
     #: continuation holds it. With the wall's friction, the node at the joint keeps the
     #: friction it had (frictionless, it lost the floor's friction in filling and changed the
-    #: ch. 6 fill's slip-stick realisation). (The ch. 8.4 flat bottom's coaxial outlet, held
-    #: so, accelerates and its run ends 2.4 s after opening, with this length or half the
-    #: outlet radius: open, docs/validation/ch8.md.)
+    #: ch. 6 fill's slip-stick realisation). (Held so, the ch. 8.4 flat bottom's coaxial core
+    #: fell freely down a one-cell pipe at five cells across the outlet radius, with this length
+    #: or half the outlet radius: a resolution effect - at ten cells it settles; docs/validation/ch8.md.)
     LEAD_IN = 0.25
 
     def __init__(self, model):

@@ -136,9 +136,9 @@ class WallHistory:
         if w is None or not w["s"].size:
             return
         t = self.model.solver.t
-        rows = [[t, k, float(ss), *(float(np.interp(ss, w["s"], w[name])) for name in schema.WALL_HISTORY.names[3:])]
-                for k, ss in enumerate(self.station_s)]
-        self.csv.write(*rows)
+        cols = np.column_stack([self.station_s, *(np.interp(self.station_s, w["s"], w[name])
+                                                  for name in schema.WALL_HISTORY.names[3:])])
+        self.csv.write(*([t, k, *row] for k, row in enumerate(cols.tolist())))
 
 
 class PointHistory:
@@ -221,7 +221,8 @@ class PointHistory:
         p, q = p_q(v[:, 2:6])
         ratio = stress_ratio(p, q, self.model.p_stress_free)
         t = self.model.solver.t
-        self.csv.write(*[[t, k, *v[k, :6], p[k], q[k], ratio[k], *v[k, 6:]] for k in range(len(self.points))])
+        cols = np.column_stack([v[:, :6], p, q, ratio, v[:, 6:]])
+        self.csv.write(*([t, k, *row] for k, row in enumerate(cols.tolist())))
 
     def _seed(self):
         """The material points, seeded where the fixed points are now."""

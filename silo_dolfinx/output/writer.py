@@ -48,8 +48,7 @@ class CsvSeries:
     def write(self, *rows) -> None:
         if not self.active:
             return
-        for row in rows:
-            self._w.writerow([_fmt(x) for x in row])
+        self._w.writerows([_fmt(x) for x in row] for row in rows)
         self._f.flush()
 
     @property
@@ -63,8 +62,12 @@ class CsvSeries:
 
 
 def _fmt(x):
-    if isinstance(x, (float, np.floating)):  # np.float64's repr is "np.float64(...)": not CSV
-        return repr(float(x)) if math.isfinite(x) else ""
+    """A CSV cell: a float as its shortest round-trip repr (the csv module's own), a non-finite
+    one empty; numpy scalars as Python ones (np.float64's repr is "np.float64(...)": not CSV)."""
+    if type(x) is float:  # the common case first: rows built with .tolist()
+        return x if x - x == 0.0 else ""  # inf - inf and nan - nan are nan
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else ""
     if isinstance(x, np.integer):
         return int(x)
     return x

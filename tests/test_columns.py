@@ -102,9 +102,9 @@ def test_fe1_on_two_ranks_measures_what_one_rank_does(shared_tmp, tmp_path):
     from mpi4py import MPI
 
     if MPI.COMM_WORLD.size == 1:
-        # On one rank the fixture's run already is the 1-rank run: comparing it with itself
-        # could not fail. The check is between rank counts, so it runs in the MPI leg of the
-        # tests (bootstrap test runs the suite under mpirun -n 2), where it executes.
+        # On one rank COMM_WORLD is COMM_SELF: both runs below would be the same 1-rank run,
+        # a comparison that could not fail. The check is between rank counts, so it runs in the
+        # MPI leg of the tests (bootstrap test runs the suite under mpirun -n 2), where it executes.
         pytest.skip("compares a 1-rank with a 2-rank run: runs in the MPI leg")
     quick = ("geometry.element_size=0.08", "fill.duration=1.0", "store.duration=0.3")
     sc, out = run_fe1(shared_tmp / "fe1_coarse", MPI.COMM_WORLD, *quick)

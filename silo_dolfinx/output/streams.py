@@ -135,10 +135,15 @@ class WallHistory:
         w = self.model.wall_state()
         if w is None or not w["s"].size:
             return
-        t = self.model.solver.t
         cols = np.column_stack([self.station_s, *(np.interp(self.station_s, w["s"], w[name])
                                                   for name in schema.WALL_HISTORY.names[3:])])
-        self.csv.write(*([t, k, *row] for k, row in enumerate(cols.tolist())))
+        self.csv.write(*_indexed_rows(self.model.solver.t, cols))
+
+
+def _indexed_rows(t: float, cols: np.ndarray):
+    """Rows (t, index, *values) of a per-station or per-point history sample, as Python
+    numbers (one tolist(), no per-value numpy scalars)."""
+    return ([t, k, *row] for k, row in enumerate(cols.tolist()))
 
 
 class PointHistory:
@@ -220,9 +225,8 @@ class PointHistory:
         v = self.values()
         p, q = p_q(v[:, 2:6])
         ratio = stress_ratio(p, q, self.model.p_stress_free)
-        t = self.model.solver.t
         cols = np.column_stack([v[:, :6], p, q, ratio, v[:, 6:]])
-        self.csv.write(*([t, k, *row] for k, row in enumerate(cols.tolist())))
+        self.csv.write(*_indexed_rows(self.model.solver.t, cols))
 
     def _seed(self):
         """The material points, seeded where the fixed points are now."""

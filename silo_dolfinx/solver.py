@@ -439,6 +439,8 @@ class ExplicitSolver:
         """t_{n+1} becomes t_n: swap the double buffers, advance time, take the next Δt."""
         self.q.swap()
         self._fvec, self._fvec_new = self._fvec_new, self._fvec
+        for contact in self.contacts:  # the accepted step's forces join the history's interval
+            contact.accept(dt)
         self.t += dt
         self.steps += 1
         self.dt_prev = dt

@@ -57,7 +57,9 @@ ENERGY = CsvFile("energy.csv", "The energy ledger (J, full 360°), at the histor
     C("relative_error", "-", "|balance| over the largest energy scale so far"),
 ))
 
-WALL_HISTORY = CsvFile("wall_history.csv", "Wall stations at the history rate (interpolated along the wall).", (
+WALL_HISTORY = CsvFile("wall_history.csv", "Wall stations at the history rate (interpolated along the wall); "
+                       "pressures and slip are means over the interval since the previous sample (instants with "
+                       "output.station_sampling = \"instant\").", (
     T, C("station", "-", "station index (output.stations order)"),
     C("s", "m", "arclength along the wall from the outlet edge"),
     C("r", "m", "radius of the station now"), C("z", "m", "height of the station now"),

@@ -120,7 +120,9 @@ class EnergyHistory:
 
 
 class WallHistory:
-    """wall_history.csv: pressures and slip at the wall stations (interpolated along s)."""
+    """wall_history.csv: pressures and slip at the wall stations (interpolated along s), each
+    sample the mean over the interval since the previous one (``output.station_sampling =
+    "mean"``) or the step at the sample (``"instant"``)."""
 
     CHECKPOINT = ()
 
@@ -129,10 +131,11 @@ class WallHistory:
         out = model.scene.output
         st = np.asarray(out.stations, float)
         self.station_s = model.outline.wall.s_at_height(st) if out.station_coordinate == "z" else st
+        self.interval_mean = out.station_sampling == "mean"
         self.csv = results.table(schema.WALL_HISTORY)
 
     def sample(self, stage: str) -> None:
-        w = self.model.wall_state()
+        w = self.model.wall_state(self.interval_mean)
         if w is None or not w["s"].size:
             return
         cols = np.column_stack([self.station_s, *(np.interp(self.station_s, w["s"], w[name])

@@ -123,8 +123,10 @@ class SiloModel:
         s.energy.initial = s.material.elastic_energy(s.sig, s.dV)  # this rank's share (summed globally)
 
     # ------------------------------------------------------------------ wall output
-    def wall_state(self) -> dict[str, np.ndarray] | None:
-        """Per wall node (gathered on rank 0, sorted by arclength): s, r, z, p_n, p_s, slip."""
+    def wall_state(self, interval_mean: bool = False) -> dict[str, np.ndarray] | None:
+        """Per wall node (gathered on rank 0, sorted by arclength): s, r, z, p_n, p_s, slip —
+        of the last step, or (``interval_mean``) their means since the last such call
+        (:meth:`~silo_dolfinx.contact.WallContact.interval_means`, which starts the next)."""
         from dolfinx import fem, la
 
         s, c = self.solver, self.contact
@@ -138,8 +140,8 @@ class SiloModel:
         on_wall = area > 0
         x = self.sm.mesh.geometry.x[c.nodes]
         a = np.where(on_wall, area, 1.0)
-        cols = np.column_stack([c.s, x[:, 0], x[:, 1], c.normal_force / a, c.shear_force / a,
-                                c.slip_velocity, c.in_contact.astype(float)])[on_wall]
+        N, T, slip = c.interval_means() if interval_mean else (c.normal_force, c.shear_force, c.slip_velocity)
+        cols = np.column_stack([c.s, x[:, 0], x[:, 1], N / a, T / a, slip, c.in_contact.astype(float)])[on_wall]
         parts = self.sm.comm.gather(cols, root=0)
         if parts is None:
             return None

@@ -451,10 +451,17 @@ class Report:
         a1.set_xlabel("frequency (Hz)")
         a1.set_ylabel("amplitude of p_n (Pa)")
         a1.legend(fontsize=6, title="after opening", title_fontsize=7)
-        a2.plot(t - t_open, analysis.mobilised_friction(p, h["p_s"][sel]), "k-", lw=0.6)
+        ratio = analysis.mobilised_friction(p, h["p_s"][sel])
+        a2.plot(t - t_open, ratio, "k-", lw=0.6)
+        top = float(np.nanmax(ratio, initial=0.0))
         if self.scene is not None and self.scene.wall.friction == "coulomb":
             a2.axhline(self.scene.wall.mu, color="r", ls="--", lw=1, label=f"μ = {self.scene.wall.mu:g}")
             a2.legend(fontsize=7)
+            top = max(top, self.scene.wall.mu)
+        # from zero, no offset: a wall sliding throughout sits at μ to round-off, which an
+        # autoscaled axis would draw as a band 1e-13 wide about "+2.67e-1"
+        a2.set_ylim(0.0, 1.25 * top if top > 0.0 else 1.0)
+        a2.ticklabel_format(axis="y", useOffset=False)
         a2.set_xlabel("time after opening (s)")
         a2.set_ylabel("mobilised friction |p_s| / p_n")
         for a in (a1, a2):

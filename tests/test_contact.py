@@ -60,7 +60,7 @@ def sliding_block(comm, law, push_max, t_end=0.4):
 
 
 def test_wall_history_samples_are_interval_means_of_the_contact_forces(comm):
-    """What the wall history samples (output.station_sampling = "mean"): each node's forces and
+    """What the wall history samples (output.history_sampling = "mean"): each node's forces and
     slip averaged over the accepted steps since the previous sample, weighted by their Δt - to
     round-off against the step-by-step record; with no step since, the last step's values. And
     what that buys: the block pressed suddenly on the wall by 10 m/s² × its mass rings (its

@@ -59,7 +59,7 @@ ENERGY = CsvFile("energy.csv", "The energy ledger (J, full 360°), at the histor
 
 WALL_HISTORY = CsvFile("wall_history.csv", "Wall stations at the history rate (interpolated along the wall); "
                        "pressures and slip are means over the interval since the previous sample (instants with "
-                       "output.station_sampling = \"instant\").", (
+                       "output.history_sampling = \"instant\").", (
     T, C("station", "-", "station index (output.stations order)"),
     C("s", "m", "arclength along the wall from the outlet edge"),
     C("r", "m", "radius of the station now"), C("z", "m", "height of the station now"),
@@ -77,7 +77,8 @@ WALL_PROFILE = CsvFile("wall_profile_<stage>.csv", "Every wall node at the end o
 POINT_HISTORY = CsvFile("point_history.csv", "Stress and velocity at the interior points (output.points; fixed in space or, "
                         "with output.point_motion = \"material\", moving with the solid from the opening) at "
                         "the history rate: the means over the cell containing each point (empty while it is in no "
-                        "active cell).", (
+                        "active cell), averaged over the interval since the previous sample (instants with "
+                        "output.history_sampling = \"instant\").", (
     T, C("point", "-", "point index (output.points order)"),
     C("r", "m", "radius of the point (material points: where it is now)"), C("z", "m", "height of the point"),
     C("stress_rr", "Pa", "radial stress (tension +)"), C("stress_zz", "Pa", "vertical stress"),

@@ -121,7 +121,7 @@ class EnergyHistory:
 
 class WallHistory:
     """wall_history.csv: pressures and slip at the wall stations (interpolated along s), each
-    sample the mean over the interval since the previous one (``output.station_sampling =
+    sample the mean over the interval since the previous one (``output.history_sampling =
     "mean"``) or the step at the sample (``"instant"``)."""
 
     CHECKPOINT = ()
@@ -131,7 +131,7 @@ class WallHistory:
         out = model.scene.output
         st = np.asarray(out.stations, float)
         self.station_s = model.outline.wall.s_at_height(st) if out.station_coordinate == "z" else st
-        self.interval_mean = out.station_sampling == "mean"
+        self.interval_mean = out.history_sampling == "mean"
         self.csv = results.table(schema.WALL_HISTORY)
 
     def sample(self, stage: str) -> None:
@@ -156,7 +156,12 @@ class PointHistory:
     where they are until the outlet opens and are then carried with the solid: between remaps
     a point keeps its cell and reference coordinates (the mesh moves with the material) and
     ALE relocates it at every remap as it does its tracers; one that leaves through the
-    outlet has no value from then on."""
+    outlet has no value from then on.
+
+    With ``output.history_sampling = "mean"`` a sample is the mean over the accepted steps
+    since the previous one (a post-step hook adds each step's cell means, Δt-weighted) in the
+    cells located at the previous sample - the mesh moves a small fraction of a cell in one
+    interval; an activation of cells (a filling layer) relocates and restarts the interval."""
 
     def __init__(self, model, results: Results):
         from silo_dolfinx.geometry.cells import tensor_nodes
@@ -169,12 +174,21 @@ class PointHistory:
         self.cn = tensor_nodes(model.sm.mesh, s.n_cells_owned)
         self.csv = results.table(schema.POINT_HISTORY)
         self._x = np.zeros((model.sm.mesh.geometry.x.shape[0], 2))
+        n = self.points.shape[0]
+        self.interval_mean = model.scene.output.history_sampling == "mean"
+        self._acc = np.zeros((n, 6))  # ∫ (cell-mean σ, v) dt over the interval, this rank's points
+        self._span = np.zeros(1)  # ∫ dt
+        self._where = None  # (points this rank supplies, their active-cell rows, their cells, positions, owners)
+        self._q = None  # the solver's quadrature data the rows index (replaced when cells activate)
+        if self.interval_mean:
+            model.hooks.append(self)
 
     def checkpoint_state(self) -> dict:
-        """The material points, once seeded (:mod:`silo_dolfinx.checkpoint`)."""
+        """The material points, once seeded, and the interval so far (:mod:`silo_dolfinx.checkpoint`)."""
         from silo_dolfinx.checkpoint import capture
 
-        return {"follower": None if self.follower is None else capture(self.follower)}
+        return {"follower": None if self.follower is None else capture(self.follower),
+                "acc": self._acc.copy(), "span": self._span.copy()}
 
     def restore_state(self, saved: dict) -> None:
         """Seeded again (collective) if they had been, then put where they were."""
@@ -183,6 +197,8 @@ class PointHistory:
         if saved["follower"] is not None:
             self.follower = self.follower or self._seed()
             restore(self.follower, saved["follower"])
+        self._acc[:], self._span[:] = saved["acc"], saved["span"]
+        self._locate()
 
     def _cells(self) -> tuple[np.ndarray, np.ndarray]:
         """(owned cell or −1, position) of every point on this rank."""
@@ -195,10 +211,9 @@ class PointHistory:
         cell[f.id], pos[f.id] = f.cell, f.positions(self._x)
         return cell, pos
 
-    def values(self) -> np.ndarray:
-        """(n_points, 8): position, cell-mean stress and cell-mean velocity (the mean of the
-        cell's four nodes) of every point, NaN where no active cell holds one (collective: the
-        lowest rank that finds a point supplies it)."""
+    def _locate(self) -> None:
+        """Which rank supplies each point, from which active-cell row (collective: the lowest
+        rank that finds a point)."""
         s, comm = self.model.solver, self.model.sm.comm
         self._x[:] = self.model.sm.mesh.geometry.x[:, :2]
         cell, pos = self._cells()
@@ -207,25 +222,71 @@ class PointHistory:
         found = (cell >= 0) & (active[at] == cell) if active.size else np.zeros(cell.size, bool)
         owner = np.where(found, comm.rank, comm.size).astype(np.int64)
         comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
-        mine = found & (owner == comm.rank)
-        sig = s.sig.reshape(-1, s.nq, 4)[at[mine]]
-        w = s.dV.reshape(-1, s.nq)[at[mine]]
-        out = np.zeros((self.points.shape[0], 8))
-        out[mine, :2] = pos[mine]
-        out[mine, 2:6] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
-        out[mine, 6:] = s.nodes.v[s.node_dof[self.cn[cell[mine]]]].mean(axis=1)
+        mine = np.nonzero(found & (owner == comm.rank))[0]
+        self._where = (mine, at[mine], cell[mine], pos, owner)
+        self._q = s.q
+
+    def _cell_means(self) -> np.ndarray:
+        """(len(mine), 6): the located cells' mean stress and mean nodal velocity now."""
+        s = self.model.solver
+        mine, rows, cells = self._where[:3]
+        sig = s.sig.reshape(-1, s.nq, 4)[rows]
+        w = s.dV.reshape(-1, s.nq)[rows]
+        out = np.empty((mine.size, 6))
+        out[:, :4] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
+        out[:, 4:] = s.nodes.v[s.node_dof[self.cn[cells]]].mean(axis=1)
+        return out
+
+    # the post-step hook (interval means)
+    def before_step(self) -> None:
+        pass
+
+    def after_step(self) -> None:
+        """Add the accepted step's cell means, weighted by its Δt, to the interval."""
+        s = self.model.solver
+        if self._q is not s.q:  # cells were activated: the rows moved (collective, every rank alike)
+            self._locate()
+            self._acc[:], self._span[:] = 0.0, 0.0
+        if self._where[0].size:
+            self._acc[self._where[0]] += s.dt_prev * self._cell_means()
+        self._span += s.dt_prev
+
+    def values(self) -> np.ndarray:
+        """(n_points, 8): position, cell-mean stress and cell-mean velocity (the mean of the
+        cell's four nodes) of every point - now, or over the interval since the last sample -
+        NaN where no active cell holds one (collective)."""
+        comm = self.model.sm.comm
+        averaged = self.interval_mean and self._span[0] > 0.0 and self._q is self.model.solver.q
+        if not averaged:
+            self._locate()
+        mine, _, _, pos, owner = self._where
+        out = np.zeros((self.points.shape[0], 9))  # position, stress, velocity, 1 where a rank has the point
+        out[mine, 2:8] = self._acc[mine] / self._span[0] if averaged else self._cell_means()
+        if averaged and self.follower is not None:
+            # a material point is written where it is now, by the rank that holds it now (an ALE
+            # remap may have carried it across a partition boundary during the interval)
+            self._x[:] = self.model.sm.mesh.geometry.x[:, :2]
+            pos = self._cells()[1]
+            held = np.nonzero(np.isfinite(pos[:, 0]))[0]
+        else:
+            held = mine
+        out[held, :2] = pos[held]
+        out[held, 8] = 1.0
         comm.Allreduce(MPI.IN_PLACE, out, op=MPI.SUM)
-        out[owner == comm.size] = np.nan
+        out[(owner == comm.size) | (out[:, 8] == 0.0)] = np.nan
         if self.follower is None:
             out[:, :2] = self.points  # a fixed point has its position whether or not a cell holds it
-        return out
+        return out[:, :8]
 
     def sample(self, stage: str) -> None:
         from silo_dolfinx.invariants import p_q, stress_ratio
 
         if self.material and self.follower is None and stage == "discharge":
-            self.follower = self._seed()
+            self.follower = self._seed()  # where the fixed points are: the interval's cells stand
         v = self.values()
+        if self.interval_mean:  # the next interval: where the points are now
+            self._locate()
+            self._acc[:], self._span[:] = 0.0, 0.0
         p, q = p_q(v[:, 2:6])
         ratio = stress_ratio(p, q, self.model.p_stress_free)
         cols = np.column_stack([v[:, :6], p, q, ratio, v[:, 6:]])

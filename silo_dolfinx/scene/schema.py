@@ -443,11 +443,12 @@ OUTPUT = Section(
             example=["A", "D", "H"]),
         F("history_rate", 200.0, "Hz", "Sampling rate of time histories (at most one sample per step).",
           lo=0.0, hi=1.0e6, lo_open=True),
-        C("station_sampling", ("mean", "instant"), "mean", "What a wall_history.csv sample is. mean: the time "
-          "mean of the wall forces and slip over the interval since the previous sample (what a pressure cell "
-          "records: nothing faster than half the history rate folds into the record's band - the stiff ch. 4 "
-          "solid's ~157-Hz ringing at point e shows as a 43-Hz peak in 200-Hz instants); instant: the step "
-          "at the sample (the thesis' history output)."),
+        C("history_sampling", ("mean", "instant"), "mean", "What a wall_history.csv and point_history.csv sample "
+          "is. mean: the time mean over the interval since the previous sample (of the wall forces and slip; of "
+          "the stress and velocity of the cell holding a point), what a pressure cell records: nothing faster "
+          "than half the history rate folds into the record's band - the stiff ch. 4 solid's ~157-Hz ringing "
+          "at point e shows as a 43-Hz peak in 200-Hz instants; instant: the step at the sample (the thesis' "
+          "history output)."),
         Key("points", "locations", (), "m", "Interior points [r, z] whose stress (the mean of the cell "
             "containing each, as the thesis' one-point elements report it) is written to "
             "point_history.csv at the history rate (the thesis' Figs. 4-16 to 4-18); [] = none.",

@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections import deque
 from pathlib import Path
 
+import numba
 import numpy as np
 from mpi4py import MPI
 
@@ -226,16 +227,13 @@ class PointHistory:
         self._where = (mine, at[mine], cell[mine], pos, owner)
         self._q = s.q
 
-    def _cell_means(self) -> np.ndarray:
-        """(len(mine), 6): the located cells' mean stress and mean nodal velocity now."""
+    def _add_cell_means(self, acc: np.ndarray, weight: float) -> None:
+        """acc[point] += weight × (the located cell's mean stress, mean nodal velocity) now, for
+        the points this rank supplies (one compiled call: it runs after every step)."""
         s = self.model.solver
         mine, rows, cells = self._where[:3]
-        sig = s.sig.reshape(-1, s.nq, 4)[rows]
-        w = s.dV.reshape(-1, s.nq)[rows]
-        out = np.empty((mine.size, 6))
-        out[:, :4] = (sig * w[:, :, None]).sum(axis=1) / w.sum(axis=1)[:, None]
-        out[:, 4:] = s.nodes.v[s.node_dof[self.cn[cells]]].mean(axis=1)
-        return out
+        _add_cell_means(acc, (mine, rows, cells), (s.sig.reshape(-1, 4), s.dV, s.nq),
+                        (s.nodes.v, s.node_dof, self.cn), weight)
 
     # the post-step hook (interval means)
     def before_step(self) -> None:
@@ -247,8 +245,7 @@ class PointHistory:
         if self._q is not s.q:  # cells were activated: the rows moved (collective, every rank alike)
             self._locate()
             self._acc[:], self._span[:] = 0.0, 0.0
-        if self._where[0].size:
-            self._acc[self._where[0]] += s.dt_prev * self._cell_means()
+        self._add_cell_means(self._acc, s.dt_prev)
         self._span += s.dt_prev
 
     def values(self) -> np.ndarray:
@@ -261,7 +258,12 @@ class PointHistory:
             self._locate()
         mine, _, _, pos, owner = self._where
         out = np.zeros((self.points.shape[0], 9))  # position, stress, velocity, 1 where a rank has the point
-        out[mine, 2:8] = self._acc[mine] / self._span[0] if averaged else self._cell_means()
+        if averaged:
+            out[mine, 2:8] = self._acc[mine] / self._span[0]
+        else:
+            now = np.zeros((self.points.shape[0], 6))
+            self._add_cell_means(now, 1.0)
+            out[mine, 2:8] = now[mine]
         if averaged and self.follower is not None:
             # a material point is written where it is now, by the rank that holds it now (an ALE
             # remap may have carried it across a partition boundary during the interval)
@@ -299,6 +301,30 @@ class PointHistory:
             return ale.follow(self.points)
         self._x[:] = self.model.sm.mesh.geometry.x[:, :2]
         return _Pinned(self._x, self.cn, self.model.solver.n_cells_owned, self.points, self.model.sm.comm)
+
+
+@numba.njit(cache=True)
+def _add_cell_means(acc, where, stress, nodal, weight):
+    """acc[k] += weight × (volume-weighted mean stress of cell row r, mean velocity of its four
+    nodes) for (k, r, cell) in where = (points, active-cell rows, cells); stress = (σ (n·nq,
+    4), point volumes, nq); nodal = (v (nodes, 2), node → velocity block, cell → nodes)."""
+    points, rows, cells = where
+    sig, dV, nq = stress
+    v, node_dof, cn = nodal
+    for i in range(points.shape[0]):
+        k, r = points[i], rows[i]
+        vol = 0.0
+        for q in range(nq):
+            vol += dV[r * nq + q]
+        for j in range(4):
+            m = 0.0
+            for q in range(nq):
+                m += sig[r * nq + q, j] * dV[r * nq + q]
+            acc[k, j] += weight * m / vol
+        for a in range(4):
+            d = node_dof[cn[cells[i], a]]
+            acc[k, 4] += 0.25 * weight * v[d, 0]
+            acc[k, 5] += 0.25 * weight * v[d, 1]
 
 
 class _Pinned:

@@ -35,7 +35,7 @@ class SiloModel:
         self.outlet_dofs_all = s.node_dof[sm.nodes_on("outlet")]
         s.constraints.append(VelocityConstraint(self.axis_dofs, 0))
         self.contact_wall_open = self.outline.contact_wall()
-        self.hooks: list = []  # post-step hooks (before_step / after_step): ALE
+        self.hooks: list = []  # post-step hooks (before_step / after_step): the point history, ALE
         self.ale = None  # the discharge's ALE, once it runs
         self.outputs = None  # output streams (simulation.run sets them)
         self.effects = fx.compose(self)

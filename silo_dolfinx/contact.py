@@ -77,7 +77,7 @@ class FrictionLaw:
 class WallContact:
     """Kinematic contact of a node set with an analytic wall; one friction law per piece."""
 
-    CHECKPOINT = ("normal_force", "shear_force", "slip_velocity", "in_contact", "s", "normal", "_p", "interval")
+    CHECKPOINT = ("normal_force", "shear_force", "slip_velocity", "in_contact", "s", "normal", "_p", "interval", "interval_span")
 
     def __init__(self, wall: Wall, nodes: np.ndarray, dofs: np.ndarray, laws: list[FrictionLaw]):
         """``nodes``: geometry-node indices (owned only), ``dofs``: their velocity block indices,
@@ -98,7 +98,8 @@ class WallContact:
         self.s = np.zeros(n)  # arclength of the contact point
         self.normal = np.zeros((n, 2))
         self._p = np.zeros((n, 2))
-        self.interval = np.zeros((n, 4))  # ∫ N dt, ∫ T dt, ∫ slip dt, ∫ dt since the last interval_means()
+        self.interval = np.zeros((n, 3))  # ∫ N dt, ∫ T dt, ∫ slip dt since the last interval_means()
+        self.interval_span = np.zeros(1)  # ∫ dt over the same steps (one for every node)
         # the projection of every step, into arrays kept here (no allocation per step)
         self._gap, self._closest, self._piece = np.zeros(n), np.zeros((n, 2)), np.zeros(n, np.int64)
         t0 = np.subtract(wall.pieces[0].start, wall.point_at(min(1e-9, wall.length))[0])
@@ -129,16 +130,17 @@ class WallContact:
         add them, weighted by its Δt, to the interval integrals."""
         if self.nodes.size:
             _accumulate(self.interval, self.normal_force, self.shear_force, self.slip_velocity, dt)
+        self.interval_span += dt
 
     def interval_means(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(N, T, slip velocity) per node averaged over the steps since the last call, which
         starts the next interval; the last step's values where no step has been taken since."""
-        acc = self.interval
-        span = acc[:, 3]
-        if not span.size or span[0] <= 0.0:
+        span = float(self.interval_span[0])
+        if span <= 0.0:
             return self.normal_force.copy(), self.shear_force.copy(), self.slip_velocity.copy()
-        means = acc[:, :3] / span[:, None]
-        acc[:] = 0.0
+        means = self.interval / span
+        self.interval[:] = 0.0
+        self.interval_span[:] = 0.0
         return means[:, 0], means[:, 1], means[:, 2]
 
     @property
@@ -154,7 +156,6 @@ def _accumulate(acc, N, T, slip, dt):
         acc[k, 0] += N[k] * dt
         acc[k, 1] += T[k] * dt
         acc[k, 2] += slip[k] * dt
-        acc[k, 3] += dt
 
 
 @numba.njit(cache=True)

@@ -32,6 +32,9 @@ def assert_names(err: SceneError, key: str, *fragments: str):
 @pytest.mark.parametrize("path", sorted(SCENES.glob("*.toml")), ids=lambda p: p.stem)
 def test_shipped_scenes_are_valid_and_round_trip(path):
     scene = load_scene(path)
+    # each scene says what it is: a variant does not inherit its base's description (the loader
+    # drops it), so a variant without its own would show none in `silo check` and summary.json
+    assert scene.description.strip(), f"{path.name}: no description"
     again = load_scene(scene.to_dict())
     assert again.to_dict() == scene.to_dict()
     # The resolved TOML is itself a scene that resolves to the same thing.

@@ -335,7 +335,8 @@ if comm.rank == 0:
         a.set_xlabel(xl)
         a.set_title(title)
         a.grid(alpha=0.3)
-        a.legend(fontsize=7)
+        if a.get_legend_handles_labels()[0]:  # a panel whose cases did not run stays empty
+            a.legend(fontsize=7)
     for a in ax[:3]:
         a.set_ylabel("z (m)")
     ax[1].set_ylim(0, 2.0)

@@ -145,6 +145,30 @@ def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float |
     return float(np.sqrt(np.mean(low[inside] ** 2))), float(peaks[0]) if peaks.size else float("nan")
 
 
+THESIS_WINDOW = 10.0  # s: Fig. 4-12 cuts the 60-s record at point e into six consecutive windows
+
+
+def windowed_low_fluctuation(t, x, t_start: float | None = None, t_end: float | None = None,
+                             window: float = THESIS_WINDOW, cutoff: float = LOW_CUTOFF) -> float:
+    """RMS of the part of a history below ``cutoff`` within consecutive windows of about
+    ``window`` seconds, each measured as :func:`low_frequency_fluctuation` measures a record
+    (its own mean and linear trend removed, the same zero-phase filter, the same trim of the
+    filter's end effects), the squares pooled over the windows. This is what the thesis'
+    windowed spectra (Fig. 4-12) can see: nothing slower than one window. A drift over the
+    whole record that a single linear trend does not remove - a station's pressure recovering
+    over tens of seconds after its switch to the flowing state, as in a slow controlled
+    discharge - counts in :func:`low_frequency_fluctuation` and not here."""
+    t, x = _window(t, x, t_start, t_end, 16, "the windowed low-frequency fluctuation")
+    n = max(1, int(round((t[-1] - t[0]) / window)))
+    edges = t[0] + (t[-1] - t[0]) * np.arange(n + 1) / n
+    squares, count = 0.0, 0
+    for a, b in zip(edges[:-1], edges[1:]):
+        _, _, low, inside = _split_low(t, x, a, b, cutoff)
+        squares += float(np.sum(low[inside] ** 2))
+        count += int(inside.sum())
+    return float(np.sqrt(squares / count))
+
+
 def fast_fluctuation(t, x, t_start: float | None = None, t_end: float | None = None,
                      cutoff: float = LOW_CUTOFF) -> float:
     """RMS of the part of a history above ``cutoff``: the detrended signal minus the part

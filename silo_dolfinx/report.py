@@ -407,7 +407,7 @@ class Report:
             tk = max(t0, ts + 1.0 / analysis.LOW_CUTOFF) if np.isfinite(ts) and t0 > t_open else t0
             sel &= h["t"] >= tk
             if sel.sum() < 16 or t1 - tk < 0.25 * (t1 - t_open):  # too little after the switch to measure
-                rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open] + [np.nan] * 7)
+                rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open] + [np.nan] * 8)
                 continue
             t, p = h["t"][sel], h["p_n"][sel]
             rms, f_low = analysis.low_frequency_fluctuation(t, p)
@@ -417,7 +417,7 @@ class Report:
             rows.append([int(k), float(np.mean(h["z"][sel])), tk - t_open, float(np.mean(p)), rms, f_low, fast,
                          float(wave[0]) if wave.size else np.nan,
                          float(np.nanmean(mob)) if np.any(np.isfinite(mob)) else np.nan,
-                         analysis.slip_fraction(h["slip_velocity"][sel])])
+                         analysis.slip_fraction(h["slip_velocity"][sel]), analysis.windowed_low_fluctuation(t, p)])
         if not rows:
             self.missing.append("wall dynamics (too few discharge samples)")
             return
@@ -430,8 +430,9 @@ class Report:
             return
         name = self._station(e[0], e[1])
         self.numbers.append((f"station {name}: RMS of p_n above 1 Hz", f"{e[6]:.3g} Pa"))
-        self.numbers.append((f"station {name} (≈ h/4, point e): < 1 Hz RMS, its frequency; wave peak",
-                             f"{e[4]:.3g} Pa at {e[5]:.3g} Hz; {e[7]:.3g} Hz (from {e[2]:.3g} s after opening)"))
+        self.numbers.append((f"station {name} (≈ h/4, point e): < 1 Hz RMS, its frequency (in 10-s windows); wave peak",
+                             f"{e[4]:.3g} Pa at {e[5]:.3g} Hz ({e[10]:.3g} Pa); {e[7]:.3g} Hz (from {e[2]:.3g} s after "
+                             "opening)"))
         self.numbers.append((f"station {name}: mobilised |p_s|/p_n, time sliding",
                              f"{e[8]:.4f}; {100 * e[9]:.0f} % of the discharge"))
         t0 = t_open + e[2]

@@ -203,6 +203,9 @@ def test_report_measures_the_pulsing_of_known_wall_signals(synthetic):
     dyn = read_csv(synthetic / "wall_dynamics.csv")
     assert dyn["low_rms"] == pytest.approx(np.full(3, 800.0 / math.sqrt(2.0) / (1.0 + 0.7**8)), rel=0.01)
     assert np.all(np.abs(dyn["low_frequency"] - 0.7) < 1.0 / 58.0)
+    # in five 10.8-s windows the same 535.0 Pa within 2 % (each window's 8.8-s interior holds 6.2
+    # periods: the mean of sin² is ½ within 1/(4π·0.7·8.8) = 1.3 %)
+    assert dyn["windowed_low_rms"] == pytest.approx(np.full(3, 800.0 / math.sqrt(2.0) / (1.0 + 0.7**8)), rel=0.02)
     assert np.all(np.abs(dyn["wave_frequency"] - 5.0) < 1.0 / 58.0)
     assert dyn["mobilised_friction"] == pytest.approx(np.full(3, 0.267)) and np.all(dyn["slip_fraction"] == 1.0)
     dp = read_csv(synthetic / "discharge_pressures.csv")

@@ -139,6 +139,9 @@ WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what mak
       "windows: the stress wave, eq. 4-12, which drifts as the fill drains)"),
     C("mobilised_friction", "-", "mean |p_s|/p_n while loaded"),
     C("slip_fraction", "-", "fraction of the samples in which the station slides (|v_slip| > 0.1 mm/s)"),
+    C("windowed_low_rms", "Pa", "RMS of p_n below 1 Hz within consecutive 10-s windows (Fig. 4-12's), each with its "
+      "own mean and linear trend removed: a drift slower than a window, such as the station's recovery after its "
+      "switch, is left out"),
 ))
 
 RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a controlled discharge of a column "

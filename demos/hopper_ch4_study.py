@@ -94,8 +94,9 @@ if not any((OUT / n / "summary.json").is_file() for n in CASES.values()):
 # `wall_dynamics.csv` (per station over the discharge: the < 1 Hz RMS after removing the mean
 # and trend, its frequency, the same within consecutive 10-s windows as Fig. 4-12 analyses
 # point e (a drift slower than a window is left out: a slow controlled discharge's station
-# recovers over tens of seconds after its switch, which one linear trend does not remove), the largest peak above 1 Hz of the Welch-averaged spectrum, the mobilised friction and
-# the fraction of time in slip) and `discharge_pressures.csv` (eq. 4-9 means over the first
+# recovers over tens of seconds after its switch, which one linear trend does not remove), the
+# largest peak above 1 Hz of the Welch-averaged spectrum, the mobilised friction and the
+# fraction of time in slip) and `discharge_pressures.csv` (eq. 4-9 means over the first
 # 2 s and 10 s after opening against the end of filling).
 
 # +
@@ -217,9 +218,8 @@ def rows_for():
 
     return [(["reference"], wave), (["reference"], low), (["reference", "stiff"], stiff),
             (["reference", "stiff"], shared), (["reference"], friction),
-            (["reference"], slip), (SERIES[:4], series), (SERIES[:4], series_band), (SERIES[:4], series_fast), (["reference", "smooth"], smooth),
-            (["reference"], above),
-            (["reference"], peak)]
+            (["reference"], slip), (SERIES[:4], series), (SERIES[:4], series_band), (SERIES[:4], series_fast),
+            (["reference", "smooth"], smooth), (["reference"], above), (["reference"], peak)]
 
 
 if comm.rank == 0:
@@ -227,14 +227,15 @@ if comm.rank == 0:
     lines = ["| quantity | thesis | ours | bar | met? |", "|---|---|---|---|---|"]
     lines += [f"| {a} | {b} | {c} | {d} | {'yes' if ok else '**no**'} |" for a, b, c, d, ok in rows]
     lines += ["", f"At point e (z = {z_e[e]:.2f} m), every case run:", "",
-              "| case | cells | discharge | measured from | mean p_n | < 1 Hz RMS, frequency | < 1 Hz in 10-s windows | RMS > 1 Hz | "
-              "wave peak | p_s/p_n | in slip | wall-clock | steps/s |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| case | cells | discharge | measured from | mean p_n | < 1 Hz RMS, frequency | < 1 Hz in 10-s windows | "
+              "RMS > 1 Hz | wave peak | p_s/p_n | in slip | wall-clock | steps/s |", "|---" * 13 + "|"]
     for c in have:
         s = read_summary(OUT / CASES[c])
         d = s["stages"][-1]
         lines.append(f"| {c} | {s.get('cells')} | {d['t_end'] - d['t_start']:.0f} s | {at_e(c, 't_from'):.1f} s | "
                      f"{at_e(c, 'p_mean'):.0f} Pa | {at_e(c, 'low_rms'):.0f} Pa, {at_e(c, 'low_frequency'):.2f} Hz | "
-                     f"{at_e(c, 'windowed_low_rms'):.0f} Pa | {at_e(c, 'fast_rms'):.0f} Pa | {at_e(c, 'wave_frequency'):.2f} Hz | "
+                     f"{at_e(c, 'windowed_low_rms'):.0f} Pa | {at_e(c, 'fast_rms'):.0f} Pa | "
+                     f"{at_e(c, 'wave_frequency'):.2f} Hz | "
                      f"{at_e(c, 'mobilised_friction'):.4f} | {100 * at_e(c, 'slip_fraction'):.0f} % | "
                      f"{s.get('wall_clock_s', 0) / 60:.1f} min on {s.get('ranks')} ranks | "
                      f"{s.get('steps_per_second', 0):.0f} |")

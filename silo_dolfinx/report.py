@@ -430,7 +430,8 @@ class Report:
             return
         name = self._station(e[0], e[1])
         self.numbers.append((f"station {name}: RMS of p_n above 1 Hz", f"{e[6]:.3g} Pa"))
-        self.numbers.append((f"station {name} (≈ h/4, point e): < 1 Hz RMS, its frequency (in 10-s windows); wave peak",
+        self.numbers.append((f"station {name} (≈ h/4, point e): < 1 Hz RMS, its frequency (in 10-s windows); "
+                             "wave peak",
                              f"{e[4]:.3g} Pa at {e[5]:.3g} Hz ({e[10]:.3g} Pa); {e[7]:.3g} Hz (from {e[2]:.3g} s after "
                              "opening)"))
         self.numbers.append((f"station {name}: mobilised |p_s|/p_n, time sliding",

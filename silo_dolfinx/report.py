@@ -407,7 +407,8 @@ class Report:
             tk = max(t0, ts + 1.0 / analysis.LOW_CUTOFF) if np.isfinite(ts) and t0 > t_open else t0
             sel &= h["t"] >= tk
             if sel.sum() < 16 or t1 - tk < 0.25 * (t1 - t_open):  # too little after the switch to measure
-                rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open] + [np.nan] * 8)
+                rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open]
+                            + [np.nan] * (len(WALL_DYNAMICS.columns) - 3))  # every measured column NaN
                 continue
             t, p = h["t"][sel], h["p_n"][sel]
             rms, f_low = analysis.low_frequency_fluctuation(t, p)

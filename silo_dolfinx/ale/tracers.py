@@ -40,12 +40,7 @@ class Tracers:
         self.cn_tensor = rm.cn_tensor
         self.n_owned = rm.n_owned
         # neighbour across each tensor side: 0 ξ=0, 1 ξ=1, 2 η=0, 3 η=1 (cycle edges 3, 1, 0, 2)
-        nbr = np.full((rm.n_owned, 4), -1, np.int64)
-        for side, k in enumerate((3, 1, 0, 2)):
-            f = rm.cell_facets[:, k]
-            other = np.where(rm.fleft[f] == np.arange(rm.n_owned), rm.fright[f], rm.fleft[f])
-            nbr[:, side] = np.where(f >= 0, other, -1)
-        self.nbr = nbr
+        self.nbr = np.ascontiguousarray(rm.neighbours[:, [3, 1, 0, 2]], dtype=np.int64)
         cmap = mesh.topology.index_map(mesh.topology.dim)
         self.ghost_global = cmap.ghosts
         self.ghost_owner = cmap.owners

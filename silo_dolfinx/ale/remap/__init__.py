@@ -163,6 +163,13 @@ class Remapper:
         self.facets = facets
         nf = facets.size
         self.cell_facets, self.cell_side = cell_facets(self.cn, self.fnodes, self.fleft, self.fright, self.n_owned)
+        # each owned cell's neighbour across each cycle edge (CLOSED / OUTSIDE across the
+        # boundary), and the same with the cell itself there (for the gathers: the bounds)
+        own = np.arange(self.n_owned)[:, None]
+        cf = np.maximum(self.cell_facets, 0)
+        other = np.where(self.fleft[cf] == own, self.fright[cf], self.fleft[cf])
+        self.neighbours = np.where(self.cell_facets >= 0, other, CLOSED)
+        self.nbr = np.ascontiguousarray(np.where(self.neighbours >= 0, self.neighbours, own))
 
         # work arrays (allocated once)
         self._vol0 = np.zeros(self.n_all)
@@ -292,7 +299,6 @@ class Remapper:
             "k": k, "R": R, "grads": grads, "Rpm": Rpm, "vec": {"R": vR, "grads": vgrads, "Rpm": vRpm},
             "cen1": np.zeros((na, 2)), "low": np.zeros((nf, 1)), "A": np.zeros((nf, 1 + k)),
             "E": np.zeros((no, 1 + k)), "mnew": np.zeros(no), "qmin": np.zeros((no, 1 + k)),
-            "pp": np.zeros((no, 1 + k)), "pm": np.zeros((no, 1 + k)),
             "qmax": np.zeros((no, 1 + k)), "fmass": np.zeros(nf), "rho_old": np.zeros(no), "rho_new": np.zeros(no),
         }
         return w
@@ -312,7 +318,7 @@ class Remapper:
         fmass, mnew, rho_old, rho_new = w["fmass"], w["mnew"], w["rho_old"], w["rho_new"]
 
         # stage 1: mass (the density transported by the volume fluxes); column 0
-        lo.mass_fluxes(faces, R, self._swept, self._vol0, (E, low, qmin, qmax, rho_old))
+        lo.mass_fluxes(faces, self.nbr, R, self._swept, self._vol0, (E, low, qmin, qmax, rho_old))
         if self.high_order:
             ho.mass_corrections(faces, R, grads, self._cen0, self._swept, low, A)
             self._correct(w, faces, self._vol1, (0, 1))
@@ -353,7 +359,7 @@ class Remapper:
         """Flux correction of columns cols = (j0, j1): Zalesak's sums and limiters, the
         limiters' ghost values, the limited corrections into the totals (and, for the mass,
         the final edge fluxes)."""
-        fct.sums(faces, w["A"], cols, w["pp"], w["pm"])
-        fct.limiters(w["E"], mnew, (w["qmin"], w["qmax"]), (w["pp"], w["pm"]), cols, self.n_owned, w["Rpm"])
+        fct.limiters((self.cell_facets, self.cell_side), w["A"], w["E"], mnew, (w["qmin"], w["qmax"]), cols,
+                     self.n_owned, w["Rpm"])
         w["vec"]["Rpm"].scatter_forward()
         fct.apply(faces, w["A"], w["Rpm"], cols, w["E"], w["low"], w["fmass"])

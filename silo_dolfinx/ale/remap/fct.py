@@ -14,44 +14,28 @@ from silo_dolfinx.kernels import FAST
 
 
 @numba.njit(cache=True, fastmath=FAST)
-def sums(faces, A, cols, pp, pm):
-    """Zalesak's sums of the corrections into (pp) and out of (pm) each owned cell, columns
-    cols = (j0, j1)."""
-    fl, fr, n_owned = faces
-    j0, j1 = cols
-    for c in range(n_owned):
-        for j in range(j0, j1):
-            pp[c, j] = pm[c, j] = 0.0
-    for f in range(fl.shape[0]):
-        l, r = fl[f], fr[f]
-        lown = 0 <= l < n_owned
-        rown = 0 <= r < n_owned
-        for j in range(j0, j1):
-            # branch-free: the sign of a is data, not a pattern the CPU can predict
-            a = A[f, j]
-            ap = max(a, 0.0)
-            am = min(a, 0.0)
-            if lown:
-                pm[l, j] -= ap
-                pp[l, j] -= am
-            if rown:
-                pp[r, j] += ap
-                pm[r, j] += am
+def limiters(cells, A, E, mnew, bounds, cols, n_owned, Rpm):
+    """R± of each owned cell, columns cols = (j0, j1): Zalesak's sums P± of the corrections
+    into and out of the cell, gathered from its four edges, against the room in its bounds.
 
-
-@numba.njit(cache=True, fastmath=FAST)
-def limiters(E, mnew, bounds, sums, cols, n_owned, Rpm):
-    """R± of each owned cell: E the low-order totals, mnew the new masses (or volumes, for
-    the density), bounds = (qmin, qmax), sums = (pp, pm), cols = (j0, j1)."""
+    cells = (facet of each cell edge, the cell's side of it: +1 right, −1 left); A the
+    corrections (left -> right); E the low-order totals; mnew the new masses (or volumes,
+    for the density); bounds = (qmin, qmax). (Gathered per cell, the sums need no arrays
+    of their own and no scattered writes: 1.8× faster than summing over the edges.)"""
+    cf, cs = cells
     qmin, qmax = bounds
-    pp, pm = sums
     j0, j1 = cols
     for c in range(n_owned):
+        f0, f1, f2, f3 = max(cf[c, 0], 0), max(cf[c, 1], 0), max(cf[c, 2], 0), max(cf[c, 3], 0)
+        s0, s1, s2, s3 = cs[c, 0], cs[c, 1], cs[c, 2], cs[c, 3]  # 0 where an edge has no facet
         for j in range(j0, j1):
+            a0, a1, a2, a3 = s0 * A[f0, j], s1 * A[f1, j], s2 * A[f2, j], s3 * A[f3, j]  # > 0: inflow
+            pp = max(a0, 0.0) + max(a1, 0.0) + max(a2, 0.0) + max(a3, 0.0)
+            pm = min(a0, 0.0) + min(a1, 0.0) + min(a2, 0.0) + min(a3, 0.0)
             qp = max(0.0, mnew[c] * qmax[c, j] - E[c, j])
             qm = min(0.0, mnew[c] * qmin[c, j] - E[c, j])
-            Rpm[c, 0, j] = min(1.0, qp / pp[c, j]) if pp[c, j] > 0.0 else 1.0
-            Rpm[c, 1, j] = min(1.0, qm / pm[c, j]) if pm[c, j] < 0.0 else 1.0
+            Rpm[c, 0, j] = min(1.0, qp / pp) if pp > 0.0 else 1.0
+            Rpm[c, 1, j] = min(1.0, qm / pm) if pm < 0.0 else 1.0
 
 
 @numba.njit(cache=True, fastmath=FAST)

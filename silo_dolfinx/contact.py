@@ -32,9 +32,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.geometry.wall import Wall
 
 NONE, COULOMB, VELOCITY = 0, 1, 2

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from silo_dolfinx._jit_cache import numba
 
 
 @numba.njit(cache=True, inline="always")

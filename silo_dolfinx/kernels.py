@@ -34,7 +34,8 @@ from __future__ import annotations
 
 import math
 
-import numba
+from silo_dolfinx._jit_cache import numba
+
 
 TWO_PI = 2.0 * math.pi
 

@@ -35,10 +35,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from mpi4py import MPI
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx import kernels
 from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.forms import AxisymmetricForms

@@ -37,9 +37,10 @@ carries are booked with the remap's.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from mpi4py import MPI
+
+from silo_dolfinx._jit_cache import numba
 
 CAP = 0.05  # largest vertical move of a surface node per smoothing, as a fraction of its segments' length
 SWEEPS = 8  # Gauss-Seidel sweeps over the segments per smoothing

@@ -59,10 +59,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from mpi4py import MPI
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.ale import slump
 from silo_dolfinx.geometry.cells import cycle_nodes, orientation, worst_cells

@@ -17,10 +17,10 @@ material-following interior points of ``output.points``, row −1).
 from __future__ import annotations
 
 
-import numba
 import numpy as np
 from mpi4py import MPI
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx._mpi import reduce_scalar
 from silo_dolfinx.ale.remap import OUTSIDE
 

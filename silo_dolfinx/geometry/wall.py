@@ -29,8 +29,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
+
+from silo_dolfinx._jit_cache import numba
 
 SEGMENT = 0
 ARC = 1

@@ -16,9 +16,9 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 
-import numba
 import numpy as np
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.invariants import invariants, mean_j2
 from silo_dolfinx.kernels import FAST
 

@@ -33,9 +33,9 @@ from __future__ import annotations
 import functools
 import math
 
-import numba
 import numpy as np
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.invariants import deviator_q_p, from_principal, invariants, principal
 from silo_dolfinx.materials.base import (Material, close_opening, closing_work, equivalent_strain,
                                          plastic_strain_and_work)

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import numba
-
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.materials.base import Material, elastic_trial
 
 

@@ -47,9 +47,9 @@ from __future__ import annotations
 import functools
 import math
 
-import numba
 import numpy as np
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.invariants import from_principal, principal
 from silo_dolfinx.kernels import FAST
 from silo_dolfinx.materials.base import (Material, close_opening, closing_work, equivalent_strain,

@@ -23,10 +23,10 @@ from __future__ import annotations
 from collections import deque
 from pathlib import Path
 
-import numba
 import numpy as np
 from mpi4py import MPI
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.geometry.mesher import FACET_TAGS
 from silo_dolfinx.output import schema
 from silo_dolfinx.output.writer import Results

@@ -8,8 +8,7 @@ extremum, conservation untouched (each limited flux leaves one cell and enters t
 
 from __future__ import annotations
 
-import numba
-
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.kernels import FAST
 
 

@@ -8,9 +8,9 @@ region's centroid."""
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.ale.remap.geometry import TWO_PI
 from silo_dolfinx.kernels import FAST
 

@@ -6,8 +6,7 @@ the flux correction and the quadrature redistribution keep."""
 
 from __future__ import annotations
 
-import numba
-
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.ale.remap.geometry import CLOSED, OUTSIDE, TWO_PI
 from silo_dolfinx.kernels import FAST
 

@@ -8,9 +8,9 @@ convex combination of old ones."""
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.ale.remap.geometry import OUTSIDE, TWO_PI, corner_integrals, moments
 from silo_dolfinx.kernels import FAST
 

@@ -3,9 +3,9 @@ points of a cell keep their internal variation as far as the local bounds allow.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.kernels import FAST
 
 

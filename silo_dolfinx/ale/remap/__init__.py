@@ -298,6 +298,7 @@ class Remapper:
         self._work = w = {
             "k": k, "R": R, "grads": grads, "Rpm": Rpm, "vec": {"R": vR, "grads": vgrads, "Rpm": vRpm},
             "cen1": np.zeros((na, 2)), "low": np.zeros((nf, 1)), "A": np.zeros((nf, 1 + k)),
+            "ls": (np.zeros((no, 3)), np.zeros((no, 1 + k, 2))),  # the gradients' normal equations
             "E": np.zeros((no, 1 + k)), "mnew": np.zeros(no), "qmin": np.zeros((no, 1 + k)),
             "qmax": np.zeros((no, 1 + k)), "fmass": np.zeros(nf), "rho_old": np.zeros(no), "rho_new": np.zeros(no),
         }
@@ -312,7 +313,7 @@ class Remapper:
         no = self.n_owned
         faces = (self.fleft, self.fright, no)
         if self.high_order:
-            ho.ls_gradients(R, self._cen0, self.fleft, self.fright, no, grads)
+            ho.ls_gradients(R, self._cen0, faces, w["ls"], grads)
             vec["grads"].scatter_forward()
         low, A, E, qmin, qmax = w["low"], w["A"], w["E"], w["qmin"], w["qmax"]
         fmass, mnew, rho_old, rho_new = w["fmass"], w["mnew"], w["rho_old"], w["rho_new"]

@@ -8,37 +8,21 @@ region's centroid."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from silo_dolfinx._jit_cache import numba
 from silo_dolfinx.ale.remap.geometry import TWO_PI
 from silo_dolfinx.kernels import FAST
 
 
-@numba.njit(cache=True, fastmath=FAST, inline="always")
-def _normal_terms(c, edge, vals, w, d, normal, b):
-    """Add the least-squares terms of edge (l, r) (centroid offset d = (dx, dy), weight w)
-    to cell c; normal = (axx, axy, ayy)."""
-    l, r = edge
-    dx, dy = d
-    axx, axy, ayy = normal
-    axx[c] += w * dx * dx
-    axy[c] += w * dx * dy
-    ayy[c] += w * dy * dy
-    for j in range(vals.shape[1]):
-        dq = vals[r, j] - vals[l, j]
-        b[c, j, 0] += w * dx * dq
-        b[c, j, 1] += w * dy * dq
-
-
 @numba.njit(cache=True, fastmath=FAST)
-def ls_gradients(vals, cen, fl, fr, n_owned, grads):
-    """Least-squares gradients (weights 1/|Δx|²) of every column of ``vals`` in owned cells."""
+def ls_gradients(vals, cen, faces, scratch, grads):
+    """Least-squares gradients (weights 1/|Δx|²) of every column of ``vals`` in owned cells.
+    faces = (left, right, n_owned); scratch = (normal equations (n_owned, 3), right-hand
+    sides (n_owned, k, 2)), overwritten (work arrays of the caller: nothing allocated)."""
+    fl, fr, n_owned = faces
+    normal, b = scratch
     k = vals.shape[1]
-    axx = np.zeros(n_owned)
-    axy = np.zeros(n_owned)
-    ayy = np.zeros(n_owned)
-    b = np.zeros((n_owned, k, 2))
+    normal[:n_owned] = 0.0
+    b[:n_owned] = 0.0
     for f in range(fl.shape[0]):
         l, r = fl[f], fr[f]
         if l < 0 or r < 0:
@@ -46,21 +30,37 @@ def ls_gradients(vals, cen, fl, fr, n_owned, grads):
         dx = cen[r, 0] - cen[l, 0]
         dy = cen[r, 1] - cen[l, 1]
         w = 1.0 / (dx * dx + dy * dy + 1e-300)
-        # both cells of the edge get the same normal-equation terms (the signs of Δx and Δq cancel)
-        if l < n_owned:
-            _normal_terms(l, (l, r), vals, w, (dx, dy), (axx, axy, ayy), b)
-        if r < n_owned:
-            _normal_terms(r, (l, r), vals, w, (dx, dy), (axx, axy, ayy), b)
+        wx, wy = w * dx, w * dy
+        # both cells of the edge get the same terms (the signs of Δx and Δq cancel)
+        lown, rown = l < n_owned, r < n_owned
+        nxx, nxy, nyy = wx * dx, wx * dy, wy * dy
+        if lown:
+            normal[l, 0] += nxx
+            normal[l, 1] += nxy
+            normal[l, 2] += nyy
+        if rown:
+            normal[r, 0] += nxx
+            normal[r, 1] += nxy
+            normal[r, 2] += nyy
+        for j in range(k):
+            dq = vals[r, j] - vals[l, j]
+            if lown:
+                b[l, j, 0] += wx * dq
+                b[l, j, 1] += wy * dq
+            if rown:
+                b[r, j, 0] += wx * dq
+                b[r, j, 1] += wy * dq
     for c in range(n_owned):
-        det = axx[c] * ayy[c] - axy[c] * axy[c]
-        if det <= 1e-10 * (axx[c] + ayy[c]) ** 2:
+        axx, axy, ayy = normal[c, 0], normal[c, 1], normal[c, 2]
+        det = axx * ayy - axy * axy
+        if det <= 1e-10 * (axx + ayy) ** 2:
             for j in range(k):
                 grads[c, j, 0] = 0.0
                 grads[c, j, 1] = 0.0
             continue
         for j in range(k):
-            grads[c, j, 0] = (ayy[c] * b[c, j, 0] - axy[c] * b[c, j, 1]) / det
-            grads[c, j, 1] = (axx[c] * b[c, j, 1] - axy[c] * b[c, j, 0]) / det
+            grads[c, j, 0] = (ayy * b[c, j, 0] - axy * b[c, j, 1]) / det
+            grads[c, j, 1] = (axx * b[c, j, 1] - axy * b[c, j, 0]) / det
 
 
 @numba.njit(cache=True, fastmath=FAST)

@@ -1,7 +1,7 @@
 """Numba's on-disk cache, made safe for a package whose kernels call each other across files.
 
 Every module of this package imports numba from here (``from silo_dolfinx._jit_cache import
-numba``; tests/test_code_shape.py checks it), so the locators below are in place before any
+numba``; tests/test_jit_cache.py checks it), so the locators below are in place before any
 kernel is decorated.
 
 Numba judges a cached kernel fresh by its own source file only: a kernel that calls (or
@@ -13,7 +13,7 @@ and ``geometry.TWO_PI``; the materials share ``materials.base`` - so after a ``g
 an edit in an editable install (what ``./bootstrap`` makes) a run would silently use the old
 code. The locators installed here give every kernel of this package one freshness stamp:
 the content of all its numba-using sources, so any change to one recompiles them all
-(~1 min, once). Where the cache lives is numba's choice as before (``NUMBA_CACHE_DIR`` if
+(~40 s, once). Where the cache lives is numba's choice as before (``NUMBA_CACHE_DIR`` if
 set, else ``__pycache__`` beside the source, else the user's cache directory).
 """
 

@@ -24,6 +24,8 @@ import hashlib
 import os
 from pathlib import Path
 
+__all__ = ["install", "numba", "source_stamp"]
+
 PACKAGE = Path(__file__).resolve().parent
 
 

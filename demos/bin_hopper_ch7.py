@@ -7,7 +7,9 @@
 # friction (eq. 7-1) explains the discharge overpressure on the vertical wall. This demo runs
 # the cases below and measures every TARGETS ch. 7 row into `table.md` and `ch7.png`:
 #
-# * filling with φ 30/40/50° against Janssen (K 0.38) and EN 1991-4 (K = 1.1(1 − sin φ)) — Fig. 7-5;
+# * filling with φ 30/40/50° against Janssen (K 0.38) and EN 1991-4 (K = 1.1(1 − sin φ)), Janssen
+#   fitted to each (K and μ free: the depth scale and the level), on three solids - the scenes' cone,
+#   Mohr-Coulomb's pyramid and the literal β - Fig. 7-5;
 # * the transition peak, abrupt and with fillets, in filling and (time-averaged) discharge —
 #   Figs. 7-6/7-12; the abrupt peak on three meshes — Fig. 7-8;
 # * eq. 7-1 friction (μs 0.67, μk 0.3, ϖ 2; and ϖ 4, μk 0.2, ϖ 10) against constant μ 0.67: the
@@ -24,7 +26,7 @@
 # matched in extension (β 46.63°, the same choice as the ch. 6 discharge); the filling cases
 # show both.
 #
-#     mpirun -n 2 python demos/bin_hopper_ch7.py --quick       # h 0.05 m, 4 s of discharge, 5 cases (~8 min)
+#     mpirun -n 2 python demos/bin_hopper_ch7.py --quick       # h 0.05 m, 4 s of discharge, 9 cases (~9 min)
 #     mpirun -n 2 python demos/bin_hopper_ch7.py --element-size 0.04 --discharge 6   # every case (~40 min)
 #     mpirun -n 2 python demos/bin_hopper_ch7.py               # the thesis' r/35 = 0.01 m mesh, 20 s (hours)
 #     ... --cases abrupt dynamic --reuse                        # some cases; measure what is there
@@ -52,10 +54,13 @@ comm = MPI.COMM_WORLD
 FILL_ONLY = ['discharge.mode="none"']
 EXT = ['material.cone="extension"']
 # name: (scene, overrides, what it shows)
+# Fig. 7-5's φ series on three solids: the scenes' cone, Mohr-Coulomb's pyramid, the literal β
+FILL_SOLIDS = {"": ([], "cone matched in compression"), "_mc": (['material.model="mohr_coulomb"'], "Mohr-Coulomb"),
+               "_beta": (['material.cone="beta"'], "literal β")}
 CASES = {
-    "fill_phi30": ("bin_hopper_ch7_abrupt", FILL_ONLY + ["material.friction_angle=30"], "filling, φ 30°"),
-    "fill_phi40": ("bin_hopper_ch7_abrupt", FILL_ONLY, "filling, φ 40° (the scene)"),
-    "fill_phi50": ("bin_hopper_ch7_abrupt", FILL_ONLY + ["material.friction_angle=50"], "filling, φ 50°"),
+    **{f"fill_phi{phi}{suffix}": ("bin_hopper_ch7_abrupt", FILL_ONLY + sets + [f"material.friction_angle={phi}"],
+                                  f"filling, φ {phi}°, {label}") for suffix, (sets, label) in FILL_SOLIDS.items()
+       for phi in (30, 40, 50)},
     "abrupt": ("bin_hopper_ch7_abrupt", EXT, "abrupt, μ 0.67 (reference)"),
     "fillet02": ("bin_hopper_ch7_fillet02", EXT, "fillet 0.2 m"),
     "fillet10": ("bin_hopper_ch7_fillet10", EXT, "fillet 1 m"),
@@ -66,7 +71,8 @@ CASES = {
     "dynamic_w10": ("bin_hopper_ch7_dynamic", EXT + ["wall.decay=10"], "eq. 7-1, ϖ 10 (beyond the thesis)"),
     "dynamic_2u0": ("bin_hopper_ch7_dynamic_2u0", EXT, "eq. 7-1, 2 u0"),
 }
-QUICK = ("fill_phi30", "fill_phi50", "abrupt", "fillet10", "dynamic")
+QUICK = ("fill_phi30", "fill_phi40", "fill_phi50", "fill_phi30_mc", "fill_phi40_mc", "fill_phi50_mc", "abrupt",
+         "fillet10", "dynamic")
 ap = argparse.ArgumentParser()
 ap.add_argument("--quick", action="store_true", help="h 0.05 m, 4 s of discharge, cases " + " ".join(QUICK))
 ap.add_argument("--element-size", type=float, help="element size (m); default the scene's (0.01), 0.05 with --quick")
@@ -149,6 +155,8 @@ def measure(name):
     for label, k in (("janssen", 0.38), ("en1991", theory.janssen_k_en1991(sc.material.friction_angle))):
         res[label] = analysis.janssen_comparison(w["z"][vert], w["p_n"][vert], w["p_s"][vert], fill_height=ol.fill_height,
                                                  radius=g.radius, mu=mu, k=k, unit_weight=gamma, z_min=zt + g.radius)
+    res["fit"] = analysis.janssen_fit(w["z"][vert], w["p_n"][vert], fill_height=ol.fill_height, radius=g.radius,
+                                      unit_weight=gamma, z_min=zt + g.radius)
     near = np.abs(w["z"] - zt) < 0.5
     res["peak_fill"] = (float(w["p_n"][near].max()), float(w["z"][near][np.argmax(w["p_n"][near])]))
     res["fill_profile"] = (w["z"][vert], w["p_n"][vert])
@@ -285,6 +293,21 @@ if comm.rank == 0:
         j = R["fill_phi40"]["janssen"]
         t.insert(0, f"| filling, vertical wall (φ 40°) | Janssen K 0.38 | {j['ratio_min']:.3f}–{j['ratio_max']:.3f} from "
                     f"z0 to one radius above the transition | within 10 % | {yes(j['ratio_min'] >= 0.9 and j['ratio_max'] <= 1.1)} |")
+    # Fig. 7-5: Janssen fitted to each fill (K and μ free); the trend is a depth scale z0 that grows
+    # with φ (a smaller K) by more than 10 % and by more than the level γR/(2μ) moves
+    at = 1 if "fill_phi40" in R else 0
+    for suffix, (_, label) in FILL_SOLIDS.items():
+        fits = [R.get(f"fill_phi{phi}{suffix}", {}).get("fit") for phi in (30, 40, 50)]
+        if None in fits:
+            continue
+        z0, lev = np.array([f.z0 for f in fits]), np.array([f.p_inf for f in fits])
+        dz, dl = z0.max() / z0.min() - 1, lev.max() / lev.min() - 1
+        at += 1
+        t.insert(at - 1, f"| filling by φ 30/40/50° (Fig. 7-5), {label} | φ changes how fast the asymptote is "
+                         f"reached more than its level | Janssen fitted: K {' / '.join(f'{f.k:.2f}' for f in fits)}, mobilised μ "
+                         f"{' / '.join(f'{f.mu:.2f}' for f in fits)}; z0 {' / '.join(f'{v:.2f}' for v in z0)} m "
+                         f"({100 * dz:.0f} %), level {' / '.join(f'{v / 1e3:.2f}' for v in lev)} kPa ({100 * dl:.0f} %) | "
+                         f"z0 grows with φ by > 10 % and more than the level | {yes(z0[2] > z0[0] and dz > 0.1 and dz > dl)} |")
     lines += ["| TARGETS row | thesis | ours | bar | met? |", "|---|---|---|---|---|", *t]
     table = "\n".join(lines)
     (ROOT / "table.md").write_text(table + "\n")
@@ -305,7 +328,8 @@ if comm.rank == 0:
         if "janssen" not in r:
             continue
         if n.startswith("fill_phi"):
-            ax[0].plot(r["fill_profile"][1] / 1e3, r["fill_profile"][0], label=CASES[n][2])
+            ls = {"": "-", "mc": "--", "beta": ":"}[n[len("fill_phi30_"):]]
+            ax[0].plot(r["fill_profile"][1] / 1e3, r["fill_profile"][0], ls, label=CASES[n][2])
         if n in ("abrupt", "fillet02", "fillet10", "fillet30"):
             z, p = r["fill_all"]
             o = np.argsort(z)
@@ -325,6 +349,9 @@ if comm.rank == 0:
             ax[3].plot(mids, means, "o-", label=f"{CASES[n][2]} (binned)")
         if n in ("dynamic", "abrupt") and "spectrum" in r:
             ax[4].plot(r["spectrum"][0].frequency, r["spectrum"][0].amplitude, label=CASES[n][2])
+    zz = np.linspace(0.687, 5.0, 100)  # Janssen with the thesis' K 0.38 on the vertical wall (bin 4.313 m, R 0.35)
+    ax[0].plot(theory.janssen(5.0 - zz, 0.35, 0.67, 0.38, 1529.1 * 9.81)[0] / 1e3, zz, "k-", lw=0.8,
+               label="Janssen, K 0.38, μ 0.67")
     vv = np.linspace(0, 0.6, 100)
     ax[3].plot(vv, theory.dynamic_friction(vv, 0.67, 0.3, 2.0), "k--", label="eq. 7-1, ϖ 2")
     ax[4].axvline(13.0, color="0.5", ls=":", label="thesis 13 Hz")

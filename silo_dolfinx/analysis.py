@@ -353,6 +353,44 @@ def janssen_comparison(z, p_n, p_s, *, fill_height: float, radius: float, mu: fl
             "mobilised_mean": float(np.mean(p_s[sel] / p_n[sel])) if ratio.size else np.nan}
 
 
+@dataclass(frozen=True)
+class JanssenFit:
+    """Janssen's curve fitted to a vertical wall's normal pressures: the rate and the level."""
+
+    k: float  # lateral pressure ratio
+    mu: float  # wall friction the fill mobilises
+    z0: float  # Janssen depth R/(2 μ K) (m): how fast the asymptote is approached
+    p_inf: float  # asymptote γR/(2μ) (Pa): the level
+    rms: float  # RMS residual of the fit (Pa)
+
+
+def janssen_fit(z, p_n, *, fill_height: float, radius: float, unit_weight: float, z_min: float,
+                z_max: float | None = None) -> JanssenFit:
+    """Least-squares fit of theory.janssen's p_h(depth; K, μ) to wall pressures p_n(z) between
+    z_min and z_max (default the fill height), both K and μ free. Janssen's p_h = p_inf (1 −
+    exp(−depth/z0)) separates what a fill's K and its wall friction do: the depth scale z0 and
+    the level p_inf (thesis Fig. 7-5: "the internal friction angle governs the lateral pressure
+    ratio, which determines how rapid the pressure can achieve the asymptotic Janssen pressure")."""
+    from scipy.optimize import least_squares
+
+    from silo_dolfinx import theory
+
+    z, p_n = np.asarray(z, float), np.asarray(p_n, float)
+    sel = (z >= z_min) & (z <= (fill_height if z_max is None else z_max))
+    if np.count_nonzero(sel) < 3:
+        raise ValueError(f"janssen_fit needs at least three pressures between z {z_min:g} and the top; "
+                         f"got {np.count_nonzero(sel)}")
+    depth, p = fill_height - z[sel], p_n[sel]
+
+    def residual(x):
+        return theory.janssen(depth, radius, x[1], x[0], unit_weight)[0] - p
+
+    fit = least_squares(residual, [0.4, 0.5], bounds=([1e-3, 1e-3], [10.0, 10.0]), x_scale=[0.1, 0.1])
+    k, mu = (float(v) for v in fit.x)
+    return JanssenFit(k=k, mu=mu, z0=theory.janssen_depth(radius, mu, k), p_inf=unit_weight * radius / (2 * mu),
+                      rms=float(np.sqrt(np.mean(fit.fun ** 2))))
+
+
 def windowed_mass_flow(t, discharged_mass, window: float, t_start: float | None = None):
     """The mass actually leaving in consecutive windows of ``window`` s from ``t_start``
     (default: the first sample): (window start times, mean flow rate = mass discharged in the

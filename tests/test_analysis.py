@@ -113,6 +113,27 @@ def test_janssen_comparison_on_janssen_itself():
     assert abs(c["slip_fraction"] - 0.5) < 0.01
 
 
+def test_janssen_fit_recovers_k_and_mu():
+    """Janssen pressures for (K, μ) = (0.6, 0.36) over a 4.3-m wall, with ±1 % noise of a fixed
+    seed: the fit returns K and μ within 3 % (the noise moves the least-squares optimum by ~1 %
+    of each), z0 and the level γR/(2μ) from them; the same curve with (K, μ) swapped to (0.36,
+    0.6) has the same z0 and a level 0.6 as high - the two quantities the fit separates. Too
+    few points in the window is an error."""
+    from silo_dolfinx import theory
+
+    H, R, g = 5.0, 0.35, 15000.0
+    z = np.linspace(1.0, H, 200)
+    rng = np.random.default_rng(7)
+    for k, mu in ((0.6, 0.36), (0.36, 0.6)):
+        ph = theory.janssen(H - z, R, mu, k, g)[0] * (1 + 0.01 * rng.standard_normal(z.size))
+        f = analysis.janssen_fit(z, ph, fill_height=H, radius=R, unit_weight=g, z_min=1.0)
+        assert abs(f.k / k - 1) < 0.03 and abs(f.mu / mu - 1) < 0.03, (f, k, mu)
+        assert abs(f.z0 / (R / (2 * k * mu)) - 1) < 0.03 and abs(f.p_inf / (g * R / (2 * mu)) - 1) < 0.03
+        assert f.rms < 0.02 * ph.max()
+    with pytest.raises(ValueError, match="at least three"):
+        analysis.janssen_fit(z, ph, fill_height=H, radius=R, unit_weight=g, z_min=4.99)
+
+
 # ------------------------------------------------------------------ ch. 4 dynamic wall pressure
 def test_windowed_spectra_follow_a_tone_that_changes():
     """Six consecutive 5-s windows (Fig. 4-12) of a record whose wave is 5 Hz for 15 s, then

@@ -512,6 +512,30 @@ def janssen_k_en1991(friction_angle: float) -> float:
     return 1.1 * (1.0 - math.sin(math.radians(friction_angle)))
 
 
+def wall_yield_k(friction_angle: float, wall_friction: float) -> float:
+    """Lateral pressure ratio σ_h/σ_v beside a vertical wall of a cohesionless Mohr–Coulomb
+    solid at yield in the active state (filling: σ_v the major stress), the wall friction
+    fully mobilised (Walker 1966, Nedderman 1992 ch. 3). The wall's stress lies on the Mohr
+    circle of radius p sin φ at sin ω = sin φ_w / sin φ:
+
+        K = (1 − sin φ cos(ω − φ_w)) / (1 + sin φ cos(ω − φ_w)),
+
+    from Rankine's (1 − sin φ)/(1 + sin φ) on a smooth wall to (1 − sin²φ)/(1 + sin²φ) when the
+    wall is as rough as the solid (φ_w = φ; 0.60 at φ 30°). A wall rougher than the solid
+    (μ > tan φ) cannot mobilise more than tan φ: the solid beside it yields on the wall's plane
+    and K is that of φ_w = φ (thesis Fig. 7-5 with φ 30° and μ 0.67, docs/validation/ch7.md).
+    Angles in degrees."""
+    if not 0.0 < friction_angle < 90.0:
+        raise ValueError(f"friction_angle = {friction_angle!r}: must be in (0, 90) degrees")
+    if wall_friction < 0.0:
+        raise ValueError(f"wall_friction = {wall_friction!r}: must be ≥ 0")
+    phi = math.radians(friction_angle)
+    phiw = min(math.atan(wall_friction), phi)
+    s = math.sin(phi)
+    c = s * math.cos(math.asin(min(math.sin(phiw) / s, 1.0)) - phiw)
+    return (1.0 - c) / (1.0 + c)
+
+
 def drucker_prager_wall_shear_limit(friction_angle: float) -> float:
     """Largest shear-to-normal stress ratio τ/σ_n a cohesionless Drucker-Prager solid can carry
     on a plane (the wall): maximising τ under q = p tan β with the two other normal stresses

@@ -207,7 +207,10 @@ def test_a_mohr_coulomb_solid_weaker_than_the_wall_caps_its_friction(shared_tmp,
     0.547-0.583, mean 0.567, on this coarse mesh, 1 and 2 ranks; 0.58 on the ch. 7 bin at
     h 0.04 m; the 5 % tolerance is the layer-to-layer ripple), below μ, and the fill's K rises
     well above the elastic ν/(1 − ν) = 0.43 that this silo keeps on the scenes' cone (measured
-    0.63 against 0.44 in the next test; the bar 1.3 × 0.43 sits between the two)."""
+    0.63 against 0.44 in the next test; the bar 1.3 × 0.43 sits between the two), to the ratio
+    of a solid at yield beside a wall as rough as itself, (1 − sin²φ)/(1 + sin²φ) = 0.60
+    (theory.wall_yield_k; within 10 %: the yielded layer is one coarse element, and K here is
+    the wall's p_h over the section's mean σ_zz, not the wall's own σ_zz)."""
     sc, summary, wall, snap = fill_flat_bottom(shared_tmp / "mc30", comm, 0.67, extra=(
         'material.model="mohr_coulomb"', "material.friction_angle=30"))
     sel = (wall["z"] >= 0.3) & (wall["z"] <= 2.5)
@@ -219,6 +222,7 @@ def test_a_mohr_coulomb_solid_weaker_than_the_wall_caps_its_friction(shared_tmp,
     K = analysis.lateral_pressure_ratio(snap, wall, wall["z"])
     lower = (wall["z"] > 0.1) & (wall["z"] < sc.geometry.fill_height / 2)
     assert np.mean(K[lower]) > 1.3 * nu / (1 - nu), np.mean(K[lower])
+    assert abs(np.mean(K[lower]) / theory.wall_yield_k(30.0, 0.67) - 1) < 0.10, np.mean(K[lower])
     assert summary["energy_balance_error_max"] < 0.01
 
 

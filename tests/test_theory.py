@@ -248,6 +248,25 @@ def test_cone_values_and_errors():
         theory.drucker_prager_cone(30.0, 31.0)
 
 
+def test_wall_yield_k_against_its_limits_and_walker_jenike():
+    """K beside a vertical wall at yield: Rankine's active ratio on a smooth wall, (1 − sin²φ)/
+    (1 + sin²φ) (0.6 at 30°) on a wall as rough as the solid and on any rougher one (the solid
+    yields on the wall's plane), and in between the closed form of the same Mohr circle written
+    as Walker's/Jenike's K = [1 + sin²φ − 2√(sin²φ − μ² cos²φ)] / (4μ² + cos²φ) to round-off."""
+    for phi in (20.0, 30.0, 40.0):
+        s, c = math.sin(math.radians(phi)), math.cos(math.radians(phi))
+        assert abs(theory.wall_yield_k(phi, 0.0) - (1 - s) / (1 + s)) < 1e-14
+        rough = (1 - s * s) / (1 + s * s)
+        assert abs(theory.wall_yield_k(phi, s / c) - rough) < 1e-7  # asin at 1: round-off amplified
+        assert abs(theory.wall_yield_k(phi, 2.0) - rough) < 1e-14
+        for mu in np.linspace(0.0, 0.999 * s / c, 7):
+            jenike = (1 + s * s - 2 * math.sqrt(s * s - mu * mu * c * c)) / (4 * mu * mu + c * c)
+            assert abs(theory.wall_yield_k(phi, mu) - jenike) < 1e-12, (phi, mu)
+    assert abs(theory.wall_yield_k(30.0, 0.67) - 0.6) < 1e-12
+    with pytest.raises(ValueError):
+        theory.wall_yield_k(30.0, -0.1)
+
+
 def test_steep_cones_carry_any_wall_shear():
     """tan β ≥ 1.5 (φ > 36.87° matched in compression, e.g. ch. 7's 40°): the compressive state
     σ1 = σ2, σ3 = 0 lies inside the cone, and its Mohr circle through the origin reaches every

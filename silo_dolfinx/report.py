@@ -218,6 +218,29 @@ class Report:
             if np.any(loaded):
                 self.numbers.append((f"mobilised p_s/p_n, end of {stage} (nodes with p_n > 5 % of max)",
                                      f"mean {np.nanmean(ratio[loaded]):.4f}, median {np.nanmedian(ratio[loaded]):.4f}"))
+            if stage != "discharge":
+                self._janssen_fit(d, stage)
+
+    def _janssen_fit(self, d: dict, stage: str) -> None:
+        """Janssen fitted to a vertical wall's pressures (K and μ free, analysis.janssen_fit):
+        the ratio and the wall friction the fill developed, as the depth scale z0 and the level
+        p∞ they give - from one radius above the floor or the transition to the surface."""
+        sc = self.scene
+        if sc is None or sc.geometry.shape not in ("flat_bottom", "bin_hopper"):
+            return
+        from silo_dolfinx import analysis
+
+        R = sc.geometry.radius
+        vertical = d["r"] > R * (1 - 1e-9)
+        base = sc.outline.transition_points[0][1] if sc.geometry.shape == "bin_hopper" else float(np.min(d["z"]))
+        try:
+            f = analysis.janssen_fit(d["z"][vertical], d["p_n"][vertical], fill_height=sc.geometry.fill_height,
+                                     radius=R, unit_weight=sc.material.density * sc.loads.gravity, z_min=base + R)
+        except ValueError:  # too short a wall above the window's start
+            return
+        self.numbers.append((f"Janssen fitted to the vertical wall, end of {stage} (K, μ free; z ≥ {base + R:.2f} m)",
+                             f"K {f.k:.3f}, μ {f.mu:.3f}: z0 = R/(2μK) {f.z0:.3f} m, level γR/(2μ) {f.p_inf / 1e3:.3f} "
+                             f"kPa (rms {f.rms:.3g} Pa)"))
 
     def _history(self):
         h = read_csv(self.folder / "wall_history.csv")

@@ -277,6 +277,33 @@ def test_flow_channel_at_successive_discharged_volumes(flat_bottom):
     assert steady.startswith("t = 1 s"), steady
 
 
+def test_report_fits_janssen_to_a_filled_vertical_wall(tmp_path):
+    """A flat-bottomed silo's end-of-fill wall carrying Janssen's pressure for (K 0.55, μ 0.45):
+    the report's fit of the vertical wall gives K and μ back (to round-off of the least
+    squares), z0 = R/(2μK) and the level γR/(2μ); a discharge profile gets no fit."""
+    from silo_dolfinx import theory
+    from silo_dolfinx.report import Report
+
+    scene = load_scene(SCENES / "flat_bottom_ch6.toml")
+    d = tmp_path / "fill"
+    d.mkdir()
+    (d / "scene.toml").write_text(scene.to_toml())
+    (d / "summary.json").write_text(json.dumps({"status": "completed", "stages": []}))
+    H, R, g = scene.geometry.fill_height, scene.geometry.radius, scene.material.density * scene.loads.gravity
+    z = np.linspace(0.0, H, 120)
+    p = theory.janssen(H - z, R, 0.45, 0.55, g)[0]
+    for stage in ("fill", "discharge"):
+        write_csv(d / f"wall_profile_{stage}.csv", ["s", "r", "z", "p_n", "p_s", "slip_velocity", "in_contact"],
+                  [[zi, R, zi, pi, 0.45 * pi, 0.0, 1] for zi, pi in zip(z, p)])
+    rep = Report(d)
+    rep.wall_profiles()
+    fits = {k: v for k, v in rep.numbers if k.startswith("Janssen fitted")}
+    assert list(fits) == [f"Janssen fitted to the vertical wall, end of fill (K, μ free; z ≥ {R:.2f} m)"]
+    v = next(iter(fits.values()))
+    assert v.startswith("K 0.550, μ 0.450: z0 = R/(2μK) ") and f"{R / (2 * 0.45 * 0.55):.3f} m" in v, v
+    assert f"{g * R / 0.9 / 1e3:.3f} kPa" in v, v
+
+
 def test_report_names_stations_by_their_labels(synthetic):
     """output.station_labels name the stations (in the legends and in the numbers): the middle
     station, at h/4 of the ch. 4 fill, is the thesis' point e; an empty name leaves a station

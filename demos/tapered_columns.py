@@ -141,6 +141,19 @@ if comm.rank == 0:
     order_thesis = sorted(done, key=lambda c: TABLE_5_2[c][1])
     lines += ["", f"Ordering by exponent — thesis: {', '.join(order_thesis)}; ours: {', '.join(order_ours)} "
               f"({'same' if order_ours == order_thesis else '**different**'})."]
+    # how much the exponent depends on the fit window, which the thesis does not give: the same
+    # fit through σ⁺0 (ln(σ⁺/σ⁺0) = b x) from 0.5 m to a shorter end (at most the saturation's)
+    lines += ["", "| case | thesis FE | through σ⁺0, x 0.5–1.0 m | 0.5–1.5 m | 0.5–2.0 m | the fit window above |",
+              "|" + "---|" * 6]
+    for c in done:
+        rows, ok, top = res[c]["rows"], res[c]["ok"], res[c]["through"].window[1]
+        bs = []
+        for end in (1.0, 1.5, 2.0):
+            use = ok & (rows["z"] >= 0.5) & (rows["z"] <= min(end, top))
+            x, y = rows["z"][use], np.log(rows["normalised"][use])
+            bs.append(f"{np.sum(x * y) / np.sum(x * x):.3f}" if use.sum() >= 3 else "–")
+        lines.append(f"| {c} | {TABLE_5_2[c][1]:.2f} | {' | '.join(bs)} | {res[c]['through'].exponent:.3f} "
+                     f"(to {top:.2f} m) |")
     lines += ["", "| case | α (°) | k on the axis | wall friction mobilised | ours, through σ⁺0 | eq. 5-14/5-15 over the same x (fit) | "
               "S0 (eq. 5-18) | 1-D model with the taper's lateral strain (fit) | S0 against it | "
               "σ⁺/σ⁺0 at the top station | energy error |", "|" + "---|" * 11]

@@ -358,9 +358,11 @@ if comm.rank == 0:
             ax[3].plot(mids, means, "o-", label=f"{CASES[n][2]} (binned)")
         if n in ("dynamic", "abrupt") and "spectrum" in r:
             ax[4].plot(r["spectrum"][0].frequency, r["spectrum"][0].amplitude, label=CASES[n][2])
-    zz = np.linspace(0.687, 5.0, 100)  # Janssen with the thesis' K 0.38 on the vertical wall (bin 4.313 m, R 0.35)
-    ax[0].plot(theory.janssen(5.0 - zz, 0.35, 0.67, 0.38, 1529.1 * 9.81)[0] / 1e3, zz, "k-", lw=0.8,
-               label="Janssen, K 0.38, μ 0.67")
+    sc = scene_of("fill_phi40")  # Janssen with the thesis' K 0.38 on the scene's vertical wall
+    top, zt = sc.outline.fill_height, float(sc.outline.transition_points[0][1])
+    zz = np.linspace(zt, top, 100)
+    ax[0].plot(theory.janssen(top - zz, sc.geometry.radius, sc.wall.mu, 0.38, sc.material.density * sc.loads.gravity)[0]
+               / 1e3, zz, "k-", lw=0.8, label=f"Janssen, K 0.38, μ {sc.wall.mu:g}")
     vv = np.linspace(0, 0.6, 100)
     ax[3].plot(vv, theory.dynamic_friction(vv, 0.67, 0.3, 2.0), "k--", label="eq. 7-1, ϖ 2")
     ax[4].axvline(13.0, color="0.5", ls=":", label="thesis 13 Hz")

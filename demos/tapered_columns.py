@@ -120,6 +120,12 @@ if comm.rank == 0:
 # bar is the ordering only).
 
 # +
+def slope_through_origin(x, y) -> float:
+    """b of y = b x by least squares: the growth exponent of ln(σ⁺/σ⁺0) against x, as the
+    report's fit through σ⁺0 (analysis.rarefaction_growth) takes it."""
+    return float(np.sum(x * y) / np.sum(x * x))
+
+
 if comm.rank == 0:
     lines = ["| case | D (m) | μ | k intended / on the axis | wall friction mobilised at the pull | X0 (m), intended k | "
              "1/(2X0), k on the axis | thesis FE | ours, through σ⁺0 | "
@@ -151,7 +157,7 @@ if comm.rank == 0:
         for end in (1.0, 1.5, 2.0):
             use = ok & (rows["z"] >= 0.5) & (rows["z"] <= min(end, top))
             x, y = rows["z"][use], np.log(rows["normalised"][use])
-            bs.append(f"{np.sum(x * y) / np.sum(x * x):.3f}" if use.sum() >= 3 else "–")
+            bs.append(f"{slope_through_origin(x, y):.3f}" if use.sum() >= 3 else "–")
         lines.append(f"| {c} | {TABLE_5_2[c][1]:.2f} | {' | '.join(bs)} | {res[c]['through'].exponent:.3f} "
                      f"(to {top:.2f} m) |")
     lines += ["", "| case | α (°) | k on the axis | wall friction mobilised | ours, through σ⁺0 | eq. 5-14/5-15 over the same x (fit) | "
@@ -161,8 +167,7 @@ if comm.rank == 0:
         d = res[c]
         rows, ok = d["rows"], d["ok"]
         x = rows["z"][ok]
-        b_theory, b_taper = (float(np.sum(x * np.log(rows[col][ok])) / np.sum(x * x))
-                             for col in ("predicted", "predicted_taper"))
+        b_theory, b_taper = (slope_through_origin(x, np.log(rows[col][ok])) for col in ("predicted", "predicted_taper"))
         d["b_theory"], d["b_taper"] = b_theory, b_taper
         lines.append(f"| {c} | {d['sc'].geometry.half_angle:g} | {d['k_axis']:.3f} | {d['mobilised']:.2f} | {d['through'].exponent:.3f} | "
                      f"{b_theory:.3f} | "

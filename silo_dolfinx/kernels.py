@@ -41,9 +41,10 @@ TWO_PI = 2.0 * math.pi
 
 # Hoop-stiffness correction of the characteristic length near the axis: 1/L² += HOOP / r_c².
 # Calibrated by bisection on the scale at which undamped runs blow up
-# (benchmarks/stable_dt.py): with 0.1 the critical scale is 1.12-1.52 over structured and
-# unstructured columns and hoppers, ν 0.3-0.45, so the default scale 0.8 (and 0.9) is safe
-# and 1.5 is unstable on the column meshes (the guard test uses one).
+# (benchmarks/stable_dt.py): with 0.1 the critical scale is 1.09-1.32 over structured and
+# unstructured columns and hoppers, ν 0.3-0.45 (1.12-1.52 before unstructured meshes were
+# relocated, geometry.relocate: more even cells leave the element estimate less slack), so
+# the default scale 0.8 (and 0.9) is safe and 1.5 is unstable on every one of them.
 HOOP = 0.1
 
 # Fast math for pure arithmetic kernels, but not 'nnan'/'ninf': NaN must still propagate.
@@ -181,6 +182,32 @@ def closure(points, cells, viscosity, bbar, packed):
     return w_int, w_visc
 
 
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def dt_length(x, cell_nodes, c, o, hoop):
+    """Characteristic length L of cell c for the stable Δt (nodes in boundary-cycle order,
+    o its orientation ±1): the smallest altitude a/e_max, with the hoop stiffness near the
+    axis, 1/L² = e_max²/a² + hoop/r_c²; 0 if the cell has collapsed, inverted or turned a
+    corner inside out (a non-convex quadrilateral)."""
+    a = 0.0
+    e2max = 0.0
+    rc = 0.0
+    convex = True
+    for k in range(4):
+        n0 = cell_nodes[c, (k + 3) % 4]
+        n1 = cell_nodes[c, k]
+        n2 = cell_nodes[c, (k + 1) % 4]
+        x0, z0, x1, z1 = x[n1, 0], x[n1, 1], x[n2, 0], x[n2, 1]
+        a += x0 * z1 - x1 * z0
+        e2max = max(e2max, (x1 - x0) ** 2 + (z1 - z0) ** 2)
+        rc += 0.25 * x0
+        if o * ((x0 - x[n0, 0]) * (z1 - z0) - (z0 - x[n0, 1]) * (x1 - x0)) < 0.0:
+            convex = False
+    a = 0.5 * a * o
+    if not (a > 0.0 and rc > 0.0 and convex):
+        return 0.0
+    return 1.0 / math.sqrt(e2max / (a * a) + hoop / (rc * rc))
+
+
 @numba.njit(cache=True, fastmath=FAST)
 def stable_dt(x, cell_nodes, orient, cells, modulus, viscosity, mass_scaling, hoop=HOOP):
     """Smallest element stable time step (without the user's scale factor).
@@ -202,26 +229,9 @@ def stable_dt(x, cell_nodes, orient, cells, modulus, viscosity, mass_scaling, ho
     dt_min = 1e300
     viscous = b1 > 0.0 or b2 > 0.0
     for c in range(nc):
-        a = 0.0
-        e2max = 0.0
-        rc = 0.0
-        o = orient[c]
-        convex = True
-        for k in range(4):
-            n0 = cell_nodes[c, (k + 3) % 4]
-            n1 = cell_nodes[c, k]
-            n2 = cell_nodes[c, (k + 1) % 4]
-            x0, z0, x1, z1 = x[n1, 0], x[n1, 1], x[n2, 0], x[n2, 1]
-            a += x0 * z1 - x1 * z0
-            e2max = max(e2max, (x1 - x0) ** 2 + (z1 - z0) ** 2)
-            rc += 0.25 * x0
-            if o * ((x0 - x[n0, 0]) * (z1 - z0) - (z0 - x[n0, 1]) * (x1 - x0)) < 0.0:
-                convex = False
-        a = 0.5 * a * o
-        if not (a > 0.0 and rc > 0.0 and convex):
+        L = dt_length(x, cell_nodes, c, orient[c], hoop)
+        if L <= 0.0:
             return -(c + 1.0)
-        # altitude a/e_max, with the hoop stiffness near the axis: 1/L² = e²/a² + hoop/r²
-        L = 1.0 / math.sqrt(e2max / (a * a) + hoop / (rc * rc))
         cd = math.sqrt(modulus / (rho_cell[c] * mass_scaling))
         L_out[c] = L
         c_out[c] = cd

@@ -236,14 +236,17 @@ def test_no_checkerboard_of_q_over_p_above_the_outlet(shared_tmp, comm):
     cone, and q/p of a cell with p ≤ 0 was written as 0. A stress-free cell's q/p is undefined
     (NaN, grey in the renders: invariants.stress_ratio); what remains above the outlet is one
     plastic zone, every defined cell on the cone. Asserted on the coarse, short version of the
-    issue's run (0.05 m, 731 cells, 1.5 s of free discharge; 0.03 m / 6 s measured the same in
+    issue's run (0.04 m, 1,209 cells, 1.5 s of free discharge; 0.03 m / 6 s measured the same in
     docs/reliability.md): the outlet zone's cell-to-cell oscillation is within the issue's bar
-    (≤ 2× the rest of the flowing region; measured 0.007×), and each of its defined cells has
-    q/p = tan β + c/p within 2 % (the cone with its cohesion; without it the zone is not at yield)."""
+    (≤ 2× the rest of the flowing region; measured 0.010×), and each of its defined cells has
+    q/p = tan β + c/p within 2 % (the cone with its cohesion; without it the zone is not at yield).
+    (On 0.05 m, two cells across the outlet, the cell at the outlet's edge separates from the
+    wall and inverts at 0.35 s of the discharge since the mesh is relocated - as the unrelocated
+    0.06-m mesh did before: a K0 start that coarse is not what this test is about.)"""
     from silo_dolfinx import analysis
     from silo_dolfinx.materials import make_material
 
-    sc = load_scene(SCENES / "hopper_ch4.toml", ["geometry.element_size=0.05", 'fill.method="k0"', "store.duration=0.5",
+    sc = load_scene(SCENES / "hopper_ch4.toml", ["geometry.element_size=0.04", 'fill.method="k0"', "store.duration=0.5",
                                                  "discharge.duration=1.5", "output.field_interval=1.0",
                                                  "output.points=[]", "output.stations=[0.5]"])
     out = shared_tmp / "ch4"
@@ -260,8 +263,8 @@ def test_no_checkerboard_of_q_over_p_above_the_outlet(shared_tmp, comm):
     qp, p = snap["cell_q_over_p"][near], snap["cell_p"][near]
     mat = make_material(sc.material)
     on_cone = np.isfinite(qp)
-    assert on_cone.sum() >= 3  # not vacuous: measured 3 of the 7 (4 stress-free) since the remap lets out what the
-    # wall edges at the outlet's ends sweep past it (docs/reliability.md); 4 of 7 before
+    assert on_cone.sum() >= 3  # not vacuous: measured 14 of the 16 (2 stress-free); on 0.05 m 3 of 7 since the remap
+    # lets out what the wall edges at the outlet's ends sweep past it (docs/reliability.md), 4 of 7 before
     assert np.allclose(qp[on_cone], mat.tan_beta + sc.material.cohesion / p[on_cone], rtol=0.02), qp
     assert np.all(p[~on_cone] <= 1e-3 * sc.material.density * sc.loads.gravity * sc.geometry.fill_height)
 

@@ -136,6 +136,10 @@ def build_model(outline: Outline, opts: MeshOptions, name: str = "silo") -> None
     if any(t != 3 for t in gmsh.model.mesh.getElementTypes(2)):  # 3 = 4-node quadrilateral
         raise MeshingError("gmsh left non-quadrilateral cells; try [geometry] mesh = \"structured\" or a "
                            "smaller element_size.")
+    if not opts.structured:  # even out the cells the front left small: they set Δt (geometry.relocate)
+        from silo_dolfinx.geometry.relocate import relocate_gmsh_model
+
+        relocate_gmsh_model()
 
 
 def _wall_pieces_between(outline: Outline, za: float, zb: float):

@@ -145,7 +145,8 @@ GEOMETRY = Section(
           "largest wall radius below the fill / 20.", **LENGTH),
         C("mesh", ("structured", "unstructured"), "structured",
           "structured: block-structured quadrilaterals in horizontal bands (the thesis' meshes); "
-          "unstructured: frontal-Delaunay quadrilaterals (any wall, e.g. with ledges)."),
+          "unstructured: frontal-Delaunay quadrilaterals (any wall, e.g. with ledges), their smallest cells "
+          "evened out by node relocation (they set the stable Δt)."),
         F("max_aspect_ratio", 2.0, "-", "Structured meshes: the vertical cell size is at most this "
           "times the local radial cell size (keeps cells near a hopper outlet from becoming needles).",
           lo=1.0, hi=20.0),

@@ -251,6 +251,22 @@ def station_means(history: dict, t_start: float, t_end: float, column: str = "p_
     return np.array(z), np.array(v)
 
 
+def wall_mean(s, p, s_centre: float, half_width: float) -> float:
+    """Mean of a nodal wall profile p(s) over the arclength [s_centre − w, s_centre + w],
+    linear between nodes (as a Q1 trace is). At a corner of the wall the nodal value grows
+    without bound as the mesh is refined (the stress is singular there); the mean over a
+    fixed length, what the wall carries there, converges."""
+    s, p = np.asarray(s, float), np.asarray(p, float)
+    o = np.argsort(s)
+    s, p = s[o], p[o]
+    a, b = s_centre - half_width, s_centre + half_width
+    if half_width <= 0 or a < s[0] - 1e-12 or b > s[-1] + 1e-12:
+        raise ValueError(f"the window [{a:g}, {b:g}] m must lie within the profile's [{s[0]:g}, {s[-1]:g}] m")
+    inside = (s > a) & (s < b)
+    ss = np.concatenate(([a], s[inside], [b]))
+    return float(np.trapezoid(np.interp(ss, s, p), ss) / (b - a))
+
+
 def overpressure(z, p_discharge, z_fill, p_fill) -> np.ndarray:
     """Discharge over filling pressure at heights z: the discharge mean divided by the
     end-of-fill profile interpolated there (NaN where the fill pressure is ~0)."""

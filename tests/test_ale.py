@@ -509,7 +509,8 @@ def test_smoothing_keeps_the_volume_under_a_cratering_surface(comm):
 
 
 def test_top_row_transfer_moves_the_slumped_material_conservatively():
-    """The slump's material (ale/slump.py): after a remap that kept each top cell's mass while the
+    """The top row's material (ale/slump.py): the volumes a slump's vertical moves sweep are the
+    columns 2π ∫ dz r dr (1e-12); after a remap that kept each top cell's mass while the
     slump changed its volume by δV, the 1-D transfer along the row conserves mass exactly (the
     fluxes telescope: 1e-15 relative), gives a row of uniform density exactly that density again
     (m' = ρ (V + δV): 1e-12), and mixes an intensive variable convexly (the new means within the
@@ -522,8 +523,10 @@ def test_top_row_transfer_moves_the_slumped_material_conservatively():
     dz = np.zeros(r.size)
     slump.slump_heights(r, z, np.ones(r.size, np.bool_), math.tan(math.radians(30.0)), dz)
     dV = np.empty(r.size - 1)
-    slump.column_volumes(r, dz, dV)
-    assert np.any(dV != 0.0) and abs(dV.sum()) <= 1e-15 * np.abs(dV).sum() * 10
+    slump.swept_volumes(np.column_stack([r, z]), np.column_stack([r, z + dz]), dV)
+    columns = [2.0 * np.pi * np.dot(slump._segment_weights(r[e], r[e + 1]), dz[e:e + 2]) for e in range(r.size - 1)]
+    assert np.allclose(dV, columns, rtol=1e-12, atol=1e-15)  # vertical moves: the columns 2π ∫ dz r dr
+    assert np.any(dV != 0.0) and abs(dV.sum()) <= 1e-15 * _volume_under(r, z)  # the volume kept, to its round-off
     V0 = 2.0 * np.pi * 0.05 * (r[1:] ** 2 - r[:-1] ** 2) / 2.0 + 1e-4  # cells 5 cm deep
     rho = 1500.0
     mass = rho * V0  # kept by the remap ...

@@ -10,8 +10,10 @@ The explicit solver takes Lagrangian steps (the mesh moves with the material). E
    density) and nodal velocity carried from the Lagrangian mesh to the smoothed one by a
    conservative, bound-preserving flux-form remap; material crossing the outlet leaves.
 
-With ``max_surface_slope`` > 0 a free surface steeper than that slumps (:mod:`.slump`): the
-smoothing moves its nodes, and after the remap the material follows along the top row.
+The free surface's nodes are placed on the material surface keeping the volume under it, and
+with ``max_surface_slope`` > 0 a surface steeper than that slumps (:mod:`.slump`); after the
+remap the volume each top edge swept moves along the top row as material, so that every top
+cell keeps its density.
 
 Then the solver rebuilds what depends on mesh and state (lumped mass by dolfinx assembly,
 volumes, stable Δt, internal force) and the model its loads (gravity on the new mass). The
@@ -94,7 +96,7 @@ class ALE:
         # one-point quadrature's cell volume 2π r_c |det J_c| is not the exact volume of
         # revolution the remap conserves mass in: densities are converted to and from it
         self._exact = (np.zeros(self.remapper.n_all), np.zeros((self.remapper.n_all, 2))) if s.nq == 1 else None
-        self._top_row = TopRow(model.sm, self.smoother, no) if self.smoother.slump_tan else None
+        self._top_row = TopRow(model.sm, self.smoother, no)
         self.stats = ALEStats()
         self.tracers = Tracers(self, a.tracer_rows, a.tracer_columns) if a.tracer_rows * a.tracer_columns > 0 else None
         self.followers: list[Tracers] = []  # material points of the outputs (``follow``)
@@ -156,8 +158,8 @@ class ALE:
             raise InstabilityError(f"at t = {s.t:.6g} s {err}: the mesh has drifted far from the material "
                                    f"(Δt {s.dt:.3g} s, {self.frequency} steps per remap). Fix: [ale] frequency "
                                    "smaller (remap more often), or see the Δt diagnosis if Δt has fallen.") from err
-        if self._top_row is not None and self.smoother.slump is not None:  # the slumped surface's material
-            self._top_row.transfer(self.smoother.slump, self.remapper.last_volumes, rho, means, (lo, hi))
+        # the volumes the top edges swept (surface placement, slump) move along the top row as material
+        self._top_row.transfer(self.smoother.top_swept, self.remapper.last_volumes, rho, means, (lo, hi))
         t2 = time.perf_counter()
 
         # write back: mesh, quadrature data, velocity; rebuild what depends on them

@@ -162,7 +162,8 @@ class Smoother:
         self._top_local = top_local
         self._top_place = self.top_position[self.top_nodes]
         self.slump_tan = math.tan(math.radians(max_surface_slope)) if max_surface_slope > 0.0 else 0.0
-        self.slump = None  # (r, dz) of the polyline nodes at the last smoothing, if the surface slumped
+        self.top_swept = np.zeros(lam.size - 1)  # δV of each top edge at the last smoothing (slump.swept_volumes)
+        self._material = None  # the material surface (Lagrangian top polyline) of the smoothing in progress
 
         # stretched predictor: every local interior and axis node (owned and ghost: the same
         # arithmetic on the same data on every rank), the wall's radius by height, the base
@@ -229,7 +230,7 @@ class Smoother:
         stretched = self.predictor == "stretched"
         x = (xL if self.predictor == "current" else self.x_prev).copy()
         prev = self._top_polyline(self.x_prev).copy() if stretched else None  # (one buffer for all)
-        pts = self._top_polyline(xL)
+        pts = self._material = self._top_polyline(xL)
         s_top, z_top = self._top_corners(pts)
         axis = self.axis_nodes[:0] if stretched else self.axis_nodes
         s_c = _stretch_start(self.anchors, s_top, self.S0_top, self.wall.length)
@@ -238,7 +239,6 @@ class Smoother:
                         (self.top_nodes, self._top_place, surface_nodes(pts, self.top_fraction)),
                         self.wall.arrays)
         surface = self._top_polyline(x).copy() if (stretched or self.slump_tan) else None  # placed
-        self.slump = None
         if self.slump_tan:
             self._slump(x, surface, s_top)
         if stretched:  # interior and axis nodes from their previous places, with the surface
@@ -248,8 +248,7 @@ class Smoother:
 
     def _slump(self, x: np.ndarray, surface: np.ndarray, s_top: float) -> None:
         """Surface segments steeper than ``max_surface_slope`` brought down to it
-        (:mod:`.slump`), in place on the top rows of ``x`` and on ``surface``; the moves kept in
-        :attr:`slump` for the remap's top-row transfer."""
+        (:mod:`.slump`), in place on the top rows of ``x`` and on ``surface``."""
         movable = np.ones(surface.shape[0], np.bool_)
         # the wall's top corner slides vertically only along a vertical wall
         movable[-1] = abs(float(self.wall.point_normal_at(s_top)[1][0, 1])) < 1e-9
@@ -259,7 +258,6 @@ class Smoother:
         if np.any(dz != 0.0):
             surface[:, 1] += dz
             x[self._top_local, 1] += dz[self.top_position[self._top_local]]
-            self.slump = (r.copy(), dz)
 
     def smooth(self, xL: np.ndarray) -> np.ndarray:
         """New node positions (all local rows) for the Lagrangian positions ``xL`` (n, 2)."""
@@ -278,7 +276,7 @@ class Smoother:
                                                                          0.999 * self.min_scaled_jacobian(xL))
         if q < floor:
             xs = self._back_off(x, xL, floor)
-            self.slump = None  # the top may have moved back: its remap keeps each cell's mass
+        slump.swept_volumes(self._material, self._top_polyline(xs), self.top_swept)  # for the top-row transfer
         np.copyto(self.x_prev, xs)
         return xs
 

@@ -163,7 +163,6 @@ class Smoother:
         self._top_place = self.top_position[self.top_nodes]
         self.slump_tan = math.tan(math.radians(max_surface_slope)) if max_surface_slope > 0.0 else 0.0
         self.top_swept = np.zeros(lam.size - 1)  # δV of each top edge at the last smoothing (slump.swept_volumes)
-        self._material = None  # the material surface (Lagrangian top polyline) of the smoothing in progress
 
         # stretched predictor: every local interior and axis node (owned and ghost: the same
         # arithmetic on the same data on every rank), the wall's radius by height, the base
@@ -225,12 +224,13 @@ class Smoother:
         return self.comm.allreduce(s, op=MPI.MIN), self.comm.allreduce(a, op=MPI.MAX)
 
     # ------------------------------------------------------------------ the smoothing
-    def targets(self, xL: np.ndarray) -> np.ndarray:
-        """Boundary nodes on their targets, interior nodes at the predictor (all local rows)."""
+    def targets(self, xL: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Boundary nodes on their targets, interior nodes at the predictor (all local rows), and
+        the material surface they were placed on (the Lagrangian top polyline)."""
         stretched = self.predictor == "stretched"
         x = (xL if self.predictor == "current" else self.x_prev).copy()
         prev = self._top_polyline(self.x_prev).copy() if stretched else None  # (one buffer for all)
-        pts = self._material = self._top_polyline(xL)
+        pts = self._top_polyline(xL)
         s_top, z_top = self._top_corners(pts)
         axis = self.axis_nodes[:0] if stretched else self.axis_nodes
         s_c = _stretch_start(self.anchors, s_top, self.S0_top, self.wall.length)
@@ -244,7 +244,7 @@ class Smoother:
         if stretched:  # interior and axis nodes from their previous places, with the surface
             base = float(self.wall.point_at(s_c)[0, 1])
             _stretch(x, self.stretched, (surface, prev), base, self._radius_table)
-        return x
+        return x, pts
 
     def _slump(self, x: np.ndarray, surface: np.ndarray, s_top: float) -> None:
         """Surface segments steeper than ``max_surface_slope`` brought down to it
@@ -262,7 +262,7 @@ class Smoother:
     def smooth(self, xL: np.ndarray) -> np.ndarray:
         """New node positions (all local rows) for the Lagrangian positions ``xL`` (n, 2)."""
         xL = np.ascontiguousarray(xL[:, :2])
-        x = self.targets(xL)  # ghost rows included (the previous result was synchronised)
+        x, material = self.targets(xL)  # ghost rows included (the previous result was synchronised)
         for _ in range(self.sweeps):
             if self.wL == 0.0 and self.wA == 0.0:
                 break
@@ -276,7 +276,7 @@ class Smoother:
                                                                          0.999 * self.min_scaled_jacobian(xL))
         if q < floor:
             xs = self._back_off(x, xL, floor)
-        slump.swept_volumes(self._material, self._top_polyline(xs), self.top_swept)  # for the top-row transfer
+        slump.swept_volumes(material, self._top_polyline(xs), self.top_swept)  # for the top-row transfer
         np.copyto(self.x_prev, xs)
         return xs
 
@@ -514,18 +514,14 @@ def keep_volume(pts, r, z):
     z[m - 1] = b[m - 1] / di[m - 1]
     for j in range(m - 2, -1, -1):
         z[j] = (b[j] - up[j] * z[j + 1]) / di[j]
-    # the fixed ends' hats: their residual, spread over the free nodes' tributaries
-    target = 0.0
-    for k in range(n - 1):
-        a_, b_ = pts[k, 0], pts[k + 1, 0]
-        target += (b_ - a_) * (pts[k, 1] * (2.0 * a_ + b_) + pts[k + 1, 1] * (a_ + 2.0 * b_)) / 6.0
-    have, W = 0.0, 0.0
-    for e in range(m - 1):
-        a_, b_ = r[e], r[e + 1]
-        have += (b_ - a_) * (z[e] * (2.0 * a_ + b_) + z[e + 1] * (a_ + 2.0 * b_)) / 6.0
-    for j in range(m):
-        if free[j]:
-            W += (r[j] - r[j - 1]) * (r[j - 1] + 2.0 * r[j]) / 6.0 + (r[j + 1] - r[j]) * (2.0 * r[j] + r[j + 1]) / 6.0
+    # the fixed ends' hats: their residual, spread over the free nodes' tributaries (∫ z r dr =
+    # Σ W_j z_j, W the tributaries ∫ N_j r dr)
+    WL, WQ = np.empty(n), np.empty(m)
+    slump.tributary(pts[:, 0], WL)
+    slump.tributary(r, WQ)
+    target = np.sum(WL * pts[:, 1])
+    have = np.sum(WQ * z)
+    W = np.sum(WQ[free])
     if W > 0.0:
         dz = (target - have) / W
         for j in range(m):

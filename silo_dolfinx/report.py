@@ -900,9 +900,19 @@ class Report:
                  ("steps per second", f"{s['steps_per_second']:.0f}" if "steps_per_second" in s else None),
                  ("ranks", s.get("ranks")),
                  ("initial stable Δt", f"{s['stable_dt_initial']:.3g} s" if "stable_dt_initial" in s else None),
+                 ("stable Δt at the end, set by", self._dt_limit()),
                  ("energy balance error (max)", f"{100 * s['energy_balance_error_max']:.3f} %"
                   if "energy_balance_error_max" in s else None)]
         self.numbers = [(k, str(v)) for k, v in pairs if v is not None] + self.numbers
+
+    def _dt_limit(self) -> str | None:
+        """The cell that set the stable Δt at the end of the last stage (its summary record)."""
+        stages = self.summary.get("stages") or [{}]
+        c = stages[-1].get("dt_limit")
+        if not c or not np.isfinite(c.get("dt", np.nan)):
+            return None
+        return (f"{c['dt']:.3g} s ({stages[-1]['name']}): the cell at r {c['r']:.3g} m, z {c['z']:.3g} m, "
+                f"{1e3 * c['length']:.2g} mm across, {c['density']:.4g} kg/m³")
 
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,

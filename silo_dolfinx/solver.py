@@ -335,12 +335,8 @@ class ExplicitSolver:
     def _fall_message(self, dt_crit: float) -> str:
         """Why Δt fell below [numerics] min_time_step_fraction of its reference: the cell that
         limits it (collective), and what to do about it."""
-        trd, L, c, rho = self.q.cells.arrays
-        dt = L / c
-        i = int(np.argmin(dt)) if dt.size else -1
-        r, z = self.mesh.geometry.x[self._active_nodes[i], :2].mean(axis=0) if i >= 0 else (np.nan, np.nan)
-        mine = (float(dt[i]) if i >= 0 else np.inf, float(rho[i]) if i >= 0 else np.nan, float(r), float(z))
-        _, rho_c, r, z = min(self.comm.allgather(mine))
+        cell = self.limiting_cell(refresh=False)  # the trial configuration's lengths and wave speeds
+        rho_c, r, z = cell["density"], cell["r"], cell["z"]
         rho0 = self.material.density
         head = (f"the stable Δt fell to {dt_crit:.3g} s at t = {self.t:.6g} s, below [numerics] "
                 f"min_time_step_fraction = {self.numerics.min_time_step_fraction:g} of its {self.dt_reference:.3g} s; "
@@ -358,6 +354,26 @@ class ExplicitSolver:
             why = (f"It has not emptied: a cell is being crushed or distorted: {self._distortion_hint()} (Or lower "
                    "min_time_step_fraction to run on.)")
         return head + why
+
+    def limiting_cell(self, refresh: bool = True) -> dict[str, float]:
+        """Collective: the active cell with the smallest stable Δt - where it is (centroid r, z),
+        its characteristic length, density and stable Δt (s, before time_step_scale, with the
+        bulk viscosity's reduction as the step computes it); NaN if no cell is active.
+        ``refresh``: re-evaluate the lengths and wave speeds at the current configuration first."""
+        if refresh and self._cell_dt() <= 0.0:  # a collapsed cell: its length is not defined
+            return dict.fromkeys(("r", "z", "length", "density", "dt"), float("nan"))
+        trd, L, c, rho = self.q.cells.arrays
+        b1, b2 = self.numerics.bulk_viscosity
+        dt = L / c
+        xi = b1 - b2 * b2 * dt * np.minimum(trd, 0.0) if (b1 > 0.0 or b2 > 0.0) else 0.0
+        dt = dt * (np.sqrt(1.0 + xi * xi) - xi)
+        i = int(np.argmin(dt)) if dt.size else -1
+        mine = (np.inf, np.nan, np.nan, np.nan, np.nan)
+        if i >= 0:
+            r, z = self.mesh.geometry.x[self._active_nodes[i], :2].mean(axis=0)
+            mine = (float(dt[i]), float(r), float(z), float(L[i]), float(rho[i]))
+        dt_c, r, z, L_c, rho_c = min(self.comm.allgather(mine))
+        return {"r": r, "z": z, "length": L_c, "density": rho_c, "dt": dt_c if np.isfinite(dt_c) else float("nan")}
 
     def _cell_dt(self) -> float:
         """This rank's smallest stable Δt of the current configuration; −(c + 1) if active cell c

@@ -754,8 +754,9 @@ def test_outlet_velocity_depends_on_the_reading_of_the_friction_angle(shared_tmp
 
 
 def test_dilation_is_reported_with_its_fix(ale_run):
-    """Each stage records its lowest cell density; the discharge's equals the lowest density of
-    the last field snapshot (written at the stage's end). With the default critical state the
+    """Each stage records its lowest cell density and the cell that limits Δt; the discharge's
+    equal the lowest density of the last field snapshot (written at the stage's end) and a cell
+    of it. With the default critical state the
     solid sheared at the outlet stops dilating: in this 1.5 s discharge no cell falls below
     half of ρ0 and no warning is given. Without it (max_dilation = 0, the thesis' model) ψ
     dilates the solid for as long as it shears (a cell of the same run with max_dilation = 0
@@ -772,6 +773,11 @@ def test_dilation_is_reported_with_its_fix(ale_run):
     d = summary["stages"][-1]
     snap = np.load(sorted(glob.glob(str(out / "fields" / "snapshot_*.npz")))[-1])
     assert abs(d["density_min"] - snap["cell_density"].min()) < 1e-9 * rho0
+    # and the cell that limits Δt at the stage's end: a cell of that snapshot, with its density
+    lim = d["dt_limit"]
+    k = np.argmin(np.hypot(*(snap["corners"].mean(axis=1) - [lim["r"], lim["z"]]).T))
+    assert np.allclose(snap["corners"][k].mean(axis=0), [lim["r"], lim["z"]], atol=1e-12)
+    assert abs(snap["cell_density"][k] - lim["density"]) < 1e-9 * rho0 and lim["dt"] > 0.0
     assert summary["stages"][0]["density_min"] > (1 - 1e-9) * rho0  # the K0 start: no volume change yet
     assert sc.material.max_dilation == 0.05 and d["density_min"] > 0.5 * rho0
     assert not [w for w in summary["warnings"] if "dilated" in w]

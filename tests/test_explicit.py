@@ -229,6 +229,34 @@ def test_stable_at_scale_0_9(comm):
     assert 0 < e.kinetic + e.elastic < 1.01 * e.gravity
 
 
+def test_the_cell_that_limits_the_step_is_named(comm):
+    """The solver names the cell with the smallest stable Δt (each stage's summary records it as
+    dt_limit): on a uniform 0.05-m column at rest every cell has the same wave speed, so a cell
+    loosened to a quarter of the density (c doubled) limits it, at its own centroid, with the
+    closed form Δt = L/c · (√(1 + b1²) − b1) (at rest the bulk viscosity's linear term b1 alone),
+    1/L² = e²/a² + HOOP/r_c² (kernels.dt_length). The same on 1 and 2 ranks (collective)."""
+    sc = column(R=0.2, H=1.0, h=0.05)
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    model.activate(all_cells(model), None, 0.0, 0.0, last=True)
+    s = model.solver
+    at_rest = s.limiting_cell()
+    centre = s.mesh.geometry.x[s.active_cell_nodes, :2].mean(axis=1)
+    target = np.hypot(centre[:, 0] - 0.125, centre[:, 1] - 0.525) < 1e-9  # third column from the axis
+    assert comm.allreduce(int(target.any()), op=MPI.SUM) >= 1
+    s.rho_cell[target] = RHO / 4
+    cell = s.limiting_cell()
+    b1 = s.numerics.bulk_viscosity[0]
+    M = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
+    L = 1.0 / math.sqrt((0.05 / 0.05 ** 2) ** 2 + kernels.HOOP / 0.125 ** 2)
+    expected = L / math.sqrt(M / (RHO / 4)) * (math.sqrt(1 + b1 * b1) - b1)
+    assert abs(cell["r"] - 0.125) < 1e-9 and abs(cell["z"] - 0.525) < 1e-9, cell
+    assert abs(cell["density"] - RHO / 4) < 1e-9 and abs(cell["length"] / L - 1) < 1e-9
+    assert abs(cell["dt"] / expected - 1) < 1e-9, (cell, expected)
+    # at rest the axis column limits instead (its hoop term, r_c 0.025 m), at the full density
+    assert abs(at_rest["r"] - 0.025) < 1e-9 and abs(at_rest["density"] / RHO - 1) < 1e-12 and at_rest["dt"] > cell["dt"]
+    assert abs(comm.allreduce(s._cell_dt(), op=MPI.MIN) - cell["dt"]) < 1e-12 * cell["dt"]  # the step's own stable Δt
+
+
 def test_unstable_scale_is_caught_and_nothing_non_finite_is_written(shared_tmp, comm):
     """At scale 2 the guard stops the run with a clear message; the partial results are
     readable and hold no NaN. (This mesh is one of benchmarks/stable_dt.py's: critical scale 1.19.

@@ -34,7 +34,8 @@ def synthetic(tmp_path):
     d.mkdir()
     (d / "scene.toml").write_text(scene.to_toml())
     stages = [{"name": "fill", "t_start": 0.0, "t_end": 10.0}, {"name": "store", "t_start": 10.0, "t_end": 12.0},
-              {"name": "discharge", "t_start": 12.0, "t_end": 72.0}]
+              {"name": "discharge", "t_start": 12.0, "t_end": 72.0,
+               "dt_limit": {"r": 0.12, "z": 1.94, "length": 0.0036, "density": 890.0, "dt": 1.24e-4}}]
     (d / "summary.json").write_text(json.dumps({"status": "completed", "title": "synthetic", "cells": 8400,
                                                 "steps": 123, "simulated_time": 72.0, "wall_clock_s": 1.0,
                                                 "steps_per_second": 123.0, "ranks": 2, "stages": stages,
@@ -96,6 +97,8 @@ def test_report_writes_every_figure_and_the_table(synthetic):
     assert abs(peaks[0] - 0.7) < 0.02 and abs(peaks[1] - 5.0) < 0.02
     assert "Beverloo 32.5 kg/s" in text and "eq. 4-12 longitudinal frequency | 5.15 Hz" in text
     assert "| effective transition (FCB meets the wall) |" in text
+    assert ("| stable Δt at the end, set by | 0.000124 s (discharge): the cell at r 0.12 m, z 1.94 m, 3.6 mm "
+            "across, 890 kg/m³ |") in text
     assert "| mobilised p_s/p_n, end of discharge" in text and "mean 0.2670" in text
     # the inner half of each row of cells is active: half the area (rows split evenly in r)
     assert "| t = 30 s: share of the fill in the active state (σ1 within 45° of vertical) | 50 % |" in text

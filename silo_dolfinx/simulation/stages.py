@@ -269,7 +269,8 @@ def _stage_record(stage: Stage, model, t0: float, steps0: int, wall0: float) -> 
     s = model.solver
     return {"name": stage.name, "t_start": t0, "t_end": s.t, "steps": s.steps - steps0,
             "wall_clock_s": round(time.time() - wall0, 3), "dt_last": s.dt_prev,
-            "density_min": reduce_scalar(s.comm, float(s.rho_cell.min(initial=np.inf)), MPI.MIN)}
+            "density_min": reduce_scalar(s.comm, float(s.rho_cell.min(initial=np.inf)), MPI.MIN),
+            "dt_limit": s.limiting_cell()}
 
 
 __all__ = ["Discharge", "K0Start", "LayerFill", "RunInterrupted", "Stage", "Store", "advance", "compose",

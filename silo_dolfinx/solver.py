@@ -360,7 +360,8 @@ class ExplicitSolver:
         its characteristic length, density and stable Δt (s, before time_step_scale, with the
         bulk viscosity's reduction as the step computes it); NaN if no cell is active.
         ``refresh``: re-evaluate the lengths and wave speeds at the current configuration first."""
-        if refresh and self._cell_dt() <= 0.0:  # a collapsed cell: its length is not defined
+        collapsed = refresh and self._cell_dt() <= 0.0  # a collapsed cell: its length is not defined
+        if self.comm.allreduce(collapsed, op=MPI.LOR):  # (decided together: the gather below is collective)
             return dict.fromkeys(("r", "z", "length", "density", "dt"), float("nan"))
         trd, L, c, rho = self.q.cells.arrays
         b1, b2 = self.numerics.bulk_viscosity

@@ -255,6 +255,12 @@ def test_the_cell_that_limits_the_step_is_named(comm):
     # at rest the axis column limits instead (its hoop term, r_c 0.025 m), at the full density
     assert abs(at_rest["r"] - 0.025) < 1e-9 and abs(at_rest["density"] / RHO - 1) < 1e-12 and at_rest["dt"] > cell["dt"]
     assert abs(comm.allreduce(s._cell_dt(), op=MPI.MIN) - cell["dt"]) < 1e-12 * cell["dt"]  # the step's own stable Δt
+    # a cell turned inside out on one rank only (its corner (0.1, 0.5) moved past the opposite
+    # one in rank 0's copy): no length is defined, NaN on every rank, and no rank left waiting
+    x = s.mesh.geometry.x
+    if comm.rank == 0:
+        x[np.hypot(x[:, 0] - 0.1, x[:, 1] - 0.5) < 1e-9, :2] = (0.16, 0.56)
+    assert all(math.isnan(v) for v in s.limiting_cell().values())
 
 
 def test_unstable_scale_is_caught_and_nothing_non_finite_is_written(shared_tmp, comm):

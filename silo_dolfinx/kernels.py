@@ -235,10 +235,27 @@ def stable_dt(x, cell_nodes, orient, cells, modulus, viscosity, mass_scaling, ho
         cd = math.sqrt(modulus / (rho_cell[c] * mass_scaling))
         L_out[c] = L
         c_out[c] = cd
-        xi = b1 - b2 * b2 * (L / cd) * min(0.0, trd_cell[c]) if viscous else 0.0
-        dt = (L / cd) * (math.sqrt(1.0 + xi * xi) - xi)
-        dt_min = min(dt_min, dt)
+        dt_min = min(dt_min, cell_dt(L, cd, trd_cell[c], b1, b2) if viscous else L / cd)
     return dt_min
+
+
+@numba.njit(cache=True, fastmath=FAST)
+def cell_dt(L, cd, trd, b1, b2):
+    """One cell's stable Δt: L/c reduced by the bulk viscosity (b1 linear, b2 quadratic in the
+    compressive volumetric strain rate trd)."""
+    xi = b1 - b2 * b2 * (L / cd) * min(0.0, trd)
+    return (L / cd) * (math.sqrt(1.0 + xi * xi) - xi)
+
+
+@numba.njit(cache=True, fastmath=FAST)
+def cell_dts(cells, viscosity, out):
+    """Every cell's stable Δt (``out``) from the lengths and wave speeds :func:`stable_dt` wrote
+    into ``cells`` = (trd, L, c, rho)."""
+    trd, L, c, _ = cells
+    b1, b2 = viscosity
+    viscous = b1 > 0.0 or b2 > 0.0
+    for k in range(out.shape[0]):
+        out[k] = cell_dt(L[k], c[k], trd[k], b1, b2) if viscous else L[k] / c[k]
 
 
 @numba.njit(cache=True)

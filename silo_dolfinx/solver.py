@@ -363,11 +363,9 @@ class ExplicitSolver:
         collapsed = refresh and self._cell_dt() <= 0.0  # a collapsed cell: its length is not defined
         if self.comm.allreduce(collapsed, op=MPI.LOR):  # (decided together: the gather below is collective)
             return dict.fromkeys(("r", "z", "length", "density", "dt"), float("nan"))
-        trd, L, c, rho = self.q.cells.arrays
-        b1, b2 = self.numerics.bulk_viscosity
-        dt = L / c
-        xi = b1 - b2 * b2 * dt * np.minimum(trd, 0.0) if (b1 > 0.0 or b2 > 0.0) else 0.0
-        dt = dt * (np.sqrt(1.0 + xi * xi) - xi)
+        _, L, _, rho = cells = self.q.cells.arrays
+        dt = np.empty(L.size)
+        kernels.cell_dts(cells, self.numerics.bulk_viscosity, dt)
         i = int(np.argmin(dt)) if dt.size else -1
         mine = (np.inf, np.nan, np.nan, np.nan, np.nan)
         if i >= 0:

@@ -1,0 +1,144 @@
+"""The rezoning transfer (silo_dolfinx.ale.rezone): overlaps of quadrilaterals of revolution,
+and the state carried from one mesh to another - conservative, bounded, exact where it must be.
+Serial and on 2 ranks (the old state is gathered, the new cells are each rank's own)."""
+
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from silo_dolfinx.ale import rezone as rz
+from silo_dolfinx.geometry.cells import cell_corners, cycle_nodes
+
+ROUND_OFF = 1e-12  # sums of ~10³ terms of O(1): 10⁻¹³ is the round-off; 10⁻¹² leaves room
+
+
+def _rect_mesh(comm, n, m, jiggle, top=2.0):
+    """A quadrilateral mesh of [0.1, 1.1] × [0, top] with its interior nodes moved by ``jiggle``
+    of a cell (smoothly: the cells stay convex), ghosted as the silo mesher's."""
+    from dolfinx import mesh as dm
+
+    msh = dm.create_rectangle(comm, [[0.1, 0.0], [1.1, top]], [n, m], dm.CellType.quadrilateral,
+                              ghost_mode=dm.GhostMode.shared_facet)
+    x = msh.geometry.x
+    inner = (x[:, 0] > 0.1 + 1e-9) & (x[:, 0] < 1.1 - 1e-9) & (x[:, 1] > 1e-9) & (x[:, 1] < top - 1e-9)
+    dx, dy = jiggle * np.sin(7 * x[inner, 1]) / n, jiggle * np.cos(5 * x[inner, 0]) * top / m
+    x[inner, 0] += dx
+    x[inner, 1] += dy
+    return msh
+
+
+def _owned(msh):
+    return msh.topology.index_map(2).size_local
+
+
+def _old_state(comm, msh, rho_fn, q_fn, v_fn):
+    """Gathered old state with cell values from functions of the cell centre and nodal
+    velocities from a function of the node position."""
+    n = _owned(msh)
+    corners = cell_corners(msh)
+    cen = corners.mean(axis=1)
+    v = v_fn(msh.geometry.x[cycle_nodes(msh, n), :2])
+    return rz.gather(comm, corners, rho_fn(cen), q_fn(cen), v)
+
+
+def _totals(comm, vol, rho, q):
+    m = comm.allreduce(float(np.sum(rho * vol)))
+    return m, np.array([comm.allreduce(float(np.sum(rho * vol * q[:, j]))) for j in range(q.shape[1])])
+
+
+RHO = lambda c: 1000.0 + 150.0 * c[:, 0] - 80.0 * c[:, 1]  # noqa: E731
+Q = lambda c: np.column_stack([np.sin(3 * c[:, 1]), -c[:, 0] ** 2, np.ones(len(c))])  # noqa: E731
+
+
+def test_overlap_moments_closed_form():
+    """∫ r dA of the common region of two quadrilaterals against closed forms: two overlapping
+    rectangles ((r1² − r0²)/2 × height), a square inside a diamond (the whole square), disjoint
+    squares (0); either orientation of the input gives the same."""
+    a, b = np.empty((16, 2)), np.empty((16, 2))
+
+    def sq(r0, z0, r1, z1):
+        return np.array([r0, r1, r1, r0], float), np.array([z0, z0, z1, z1], float)
+
+    p, q = sq(0.2, 0.0, 1.0, 1.0), sq(0.5, 0.5, 1.5, 2.0)
+    assert rz._clip_r_moment(*p, *q, a, b) == pytest.approx((1.0 ** 2 - 0.5 ** 2) / 2 * 0.5, rel=1e-14)
+    diamond = (np.array([1.0, 2.0, 1.0, 0.0]), np.array([-1.0, 0.0, 1.0, 0.0]))
+    inner = sq(0.6, -0.3, 1.3, 0.3)
+    assert rz._clip_r_moment(*inner, *diamond, a, b) == pytest.approx((1.3 ** 2 - 0.6 ** 2) / 2 * 0.6, rel=1e-14)
+    assert rz._clip_r_moment(*diamond, *inner, a, b) == pytest.approx((1.3 ** 2 - 0.6 ** 2) / 2 * 0.6, rel=1e-14)
+    assert rz._clip_r_moment(*sq(0, 0, 1, 1), *sq(1.5, 0, 2, 1), a, b) == 0.0
+    cw = np.array([[[0.2, 0.0], [0.2, 1.0], [1.0, 1.0], [1.0, 0.0]]])  # clockwise
+    ccw, perm = rz.counter_clockwise(cw)
+    assert rz._r_moment(ccw[0, :, 0], ccw[0, :, 1]) == pytest.approx((1.0 - 0.04) / 2, rel=1e-14)
+    assert np.array_equal(ccw[0], cw[0][perm[0]])
+
+
+def test_same_mesh_is_the_identity(comm):
+    """Onto an identical mesh every cell overlaps only itself and every corner region only its
+    own: densities, means and even a non-uniform velocity come back to round-off."""
+    msh = _rect_mesh(comm, 6, 9, 0.2)
+    vfn = lambda x: np.stack([np.sin(x[..., 1]), x[..., 0] * x[..., 1]], axis=-1)  # noqa: E731
+    old = _old_state(comm, msh, RHO, Q, vfn)
+    n = _owned(msh)
+    tr = rz.Transfer(comm, old, cell_corners(msh))
+    rho, q = tr.cells()
+    cen = cell_corners(msh).mean(axis=1)
+    assert np.allclose(rho, RHO(cen), rtol=ROUND_OFF, atol=0)
+    assert np.allclose(q, Q(cen), rtol=0, atol=ROUND_OFF)
+    m, p = tr.corner_velocities()
+    v = rz.node_velocities(msh.geometry.index_map(), cycle_nodes(msh, n), m, p)
+    assert np.allclose(v, vfn(msh.geometry.x[:, :2]), rtol=0, atol=ROUND_OFF)
+    assert tr.uncovered_mass == 0.0
+
+
+def test_conservative_and_bounded_between_different_meshes(comm):
+    """7 × 11 → 9 × 13 cells, both distorted differently: every new cell is tiled by its overlaps
+    and every old cell by its own (to round-off); mass and each ∫ ρ Q dV are conserved to
+    round-off; each new Q lies within the old range; a uniform velocity is exact; a linear
+    density comes over within its own variation across the overlapping cells."""
+    old_mesh, new_mesh = _rect_mesh(comm, 7, 11, 0.2), _rect_mesh(comm, 9, 13, 0.25)
+    vel = np.array([0.3, -0.7])
+    old = _old_state(comm, old_mesh, RHO, Q, lambda x: np.broadcast_to(vel, x.shape).copy())
+    n = _owned(new_mesh)
+    tr = rz.Transfer(comm, old, cell_corners(new_mesh))
+    assert np.allclose(np.bincount(tr.pair_new, weights=tr.w, minlength=n), tr.new_volumes, rtol=ROUND_OFF, atol=0)
+    assert np.allclose(tr.covered, old.volumes, rtol=ROUND_OFF, atol=0)
+    assert np.allclose(tr.wsub.sum(axis=(1, 2)), tr.w, rtol=ROUND_OFF, atol=0)
+    rho, q = tr.cells()
+    m0, mq0 = _totals(MPI.COMM_SELF, old.volumes, old.rho, old.means)
+    m1, mq1 = _totals(comm, tr.new_volumes, rho, q)
+    assert m1 == pytest.approx(m0, rel=ROUND_OFF)
+    assert np.allclose(mq1, mq0, rtol=ROUND_OFF, atol=ROUND_OFF * m0)
+    assert np.all(q >= old.means.min(axis=0) - ROUND_OFF) and np.all(q <= old.means.max(axis=0) + ROUND_OFF)
+    assert np.allclose(q[:, 2], 1.0, rtol=0, atol=ROUND_OFF)  # a constant stays exactly constant
+    # ρ = 1000 + 150 r − 80 z sampled at old centres: a new cell's mean lies within the field's
+    # variation over the old cells it overlaps (|∇ρ| × (its diameter + two old diameters))
+    cen = cell_corners(new_mesh).mean(axis=1)
+    h_new, h_old = math.hypot(1 / 9, 2 / 13) * 1.5, math.hypot(1 / 7, 2 / 11) * 1.5
+    assert np.abs(rho - RHO(cen)).max() <= math.hypot(150.0, 80.0) * (h_new + 2 * h_old)
+    mm, p = tr.corner_velocities()
+    v = rz.node_velocities(new_mesh.geometry.index_map(), cycle_nodes(new_mesh, n), mm, p)
+    assert np.allclose(v, vel, rtol=0, atol=ROUND_OFF)
+
+
+def test_a_smaller_new_domain_keeps_the_mass(comm):
+    """The new mesh's top 0.03 m lower than the old one's (a re-sampled free surface): the old
+    top row's uncovered slivers go to the new cells they overlap, so the mass is conserved
+    and nothing is reported lost; with the new top a whole old row lower, that row's mass is
+    reported lost exactly."""
+    old_mesh = _rect_mesh(comm, 5, 10, 0.0)  # rows 0.2 m high
+    old = _old_state(comm, old_mesh, RHO, Q, lambda x: np.zeros(x.shape))
+    m0 = float(np.sum(old.rho * old.volumes))
+    new_mesh = _rect_mesh(comm, 6, 9, 0.2, top=1.97)
+    tr = rz.Transfer(comm, old, cell_corners(new_mesh))
+    rho, _ = tr.cells()
+    assert tr.uncovered_mass == 0.0
+    assert comm.allreduce(float(np.sum(rho * tr.new_volumes))) == pytest.approx(m0, rel=ROUND_OFF)
+    lower = _rect_mesh(comm, 6, 9, 0.2, top=1.8)
+    tr = rz.Transfer(comm, old, cell_corners(lower))
+    rho, _ = tr.cells()
+    top_row = old.corners[:, :, 1].min(axis=1) >= 1.8 - 1e-12
+    lost = float(np.sum((old.rho * old.volumes)[top_row]))
+    assert top_row.sum() == 5 and tr.uncovered_mass == pytest.approx(lost, rel=ROUND_OFF)
+    assert comm.allreduce(float(np.sum(rho * tr.new_volumes))) == pytest.approx(m0 - lost, rel=ROUND_OFF)

@@ -493,19 +493,19 @@ def effective_transition(z_rows, r_fcb, wall_radius, tolerance: float = 0.0):
 
 
 def time_averaged_velocity(snapshots) -> tuple[np.ndarray, np.ndarray]:
-    """(node positions of the last, node velocity averaged over all) of field snapshot files
-    (``fields/snapshot_*.npz`` of one run: the same nodes in each). One snapshot of a silo
-    in discharge carries its stress waves - the slowly creeping parts of the section move up
-    and down with them - so a flow-channel boundary drawn from one is ragged; the mean over
-    a few seconds is the flow."""
+    """(node positions of the last, node velocity averaged over all on its mesh) of field
+    snapshot files (``fields/snapshot_*.npz`` of one run, in time order). One snapshot of a
+    silo in discharge carries its stress waves - the slowly creeping parts of the section
+    move up and down with them - so a flow-channel boundary drawn from one is ragged; the mean
+    over a few seconds is the flow. A rezoned run's snapshots before its last rezone (their
+    ``mesh`` number differs from the last one's) have other nodes: they are left out."""
     files = list(snapshots)
     if not files:
         raise ValueError("time_averaged_velocity: no snapshots")
-    v = None
-    for f in files:
-        vi = np.load(f)["node_velocity"]
-        v = vi.astype(float) if v is None else v + vi
-    return np.asarray(np.load(files[-1])["node_xy"], float), v / len(files)
+    last = np.load(files[-1])
+    mesh = int(last["mesh"]) if "mesh" in last else 0
+    vs = [s["node_velocity"] for s in map(np.load, files) if (int(s["mesh"]) if "mesh" in s else 0) == mesh]
+    return np.asarray(last["node_xy"], float), np.mean(np.asarray(vs, float), axis=0)
 
 
 # ---------------------------------------------------------------------------- stress measures

@@ -115,6 +115,8 @@ def parts(model) -> dict:
         out.update(ale=model.ale, smoother=model.ale.smoother)
         if model.ale.tracers is not None:
             out["tracers"] = model.ale.tracers
+    if model.rezoner is not None:
+        out["rezoner"] = model.rezoner
     o = model.outputs
     out["outputs"] = o
     out.update({f"history{k}": h for k, h in enumerate(o.history)})
@@ -197,6 +199,13 @@ class Checkpoints:
         """After a step: a checkpoint, if a history sample was just taken and ``interval`` s of
         wall-clock have passed since the last."""
         if self.interval <= 0.0 or self.model.outputs.last_sample != self.model.solver.t:
+            return
+        rezoner = self.model.rezoner
+        if rezoner is not None and rezoner.records:  # the mesh is no longer the scene's: a resume could not rebuild it
+            self.interval = 0.0
+            self.results.summary["warnings"].append(
+                f"[output] checkpoints stopped at the first rezone (t = {rezoner.records[0]['t']:.6g} s): the mesh is no "
+                "longer the scene's. The last checkpoint before it resumes the run, which rezones again where it did.")
             return
         due = time.time() - self._last >= self.interval
         if self.comm.size > 1:

@@ -158,6 +158,23 @@ class ExplicitSolver:
         self._clock = _no_clock
         self.set_active_cells(np.arange(self.n_cells_owned, dtype=np.int32))
 
+    #: what carries over when the solver moves to another mesh (:meth:`move_to`): clocks, Δt
+    #: history, the energy ledger, the stage's damping
+    CARRIED = ("t", "steps", "rejected", "dt_prev", "dt", "dt_reference", "_increment", "energy", "energy_scale",
+               "damping", "timings", "_clock")
+
+    def move_to(self, mesh) -> None:
+        """Continue on another mesh of the same material (a rezone, :mod:`silo_dolfinx.ale.rezone`):
+        everything built on the mesh is built again on ``mesh`` - forms, node numbering, nodal and
+        quadrature arrays, all cells active - and what :attr:`CARRIED` names is kept. Loads,
+        constraints and contacts start empty (the model adds its own again); the caller then
+        fills ``sig``, ``state``, ``rho`` and ``v`` and calls :meth:`after_remap`. The
+        displacement output starts again from the new mesh."""
+        kept = {k: getattr(self, k) for k in self.CARRIED}
+        self.__init__(mesh, self.material, self.numerics, gravity=self.gravity)
+        for k, v in kept.items():
+            setattr(self, k, v)
+
     def _number_nodes(self, mesh) -> None:
         """node <-> dof maps (Q1 geometry: one geometry node per vertex, same local order)."""
         gdm = tensor_nodes(mesh)

@@ -363,3 +363,15 @@ def test_time_averaged_velocity_of_snapshots(tmp_path):
         files.append(f)
     pos, v = analysis.time_averaged_velocity(files)
     assert np.allclose(pos, xy + 0.02) and np.allclose(v, [[0.0, -2.0], [0.5 / 3, 0.0]])
+
+
+def test_time_averaged_velocity_keeps_to_the_last_mesh(tmp_path):
+    """A rezoned run's snapshots: two on the first mesh (two nodes), two on the second (three
+    nodes, ``mesh`` = 1): the mean is over the last two only, at the last one's nodes."""
+    files = []
+    for i, (mesh, n, vz) in enumerate([(0, 2, -9.0), (0, 2, -9.0), (1, 3, -1.0), (1, 3, -3.0)]):
+        f = tmp_path / f"snapshot_{i}.npz"
+        np.savez(f, mesh=mesh, node_xy=np.full((n, 2), float(i)), node_velocity=np.tile([0.0, vz], (n, 1)))
+        files.append(f)
+    pos, v = analysis.time_averaged_velocity(files)
+    assert pos.shape == (3, 2) and np.allclose(pos, 3.0) and np.allclose(v, [0.0, -2.0])

@@ -246,6 +246,11 @@ def test_kinetic_friction_above_static():
     assert_names(err, "wall.mu_kinetic", "exceeds mu_static")
 
 
+def test_rezone_quality_not_above_the_discharge_floor():
+    err = refused(scene_dict(HOPPER, ale={"rezone_min_quality": 0.1}, discharge={"mode": "free", "duration": 1.0}))
+    assert_names(err, "ale.rezone_min_quality", "not above discharge.min_mesh_quality = 0.1")
+
+
 def test_bad_override_syntax_and_unknown_override_key():
     assert_names(refused(scene_dict(HOPPER), ["material.density"]), "--set", "section.key=value")
     assert_names(refused(scene_dict(HOPPER), ["material.poisson=0.2"]), "material.poisson",

@@ -102,6 +102,17 @@ class ALE:
         self.followers: list[Tracers] = []  # material points of the outputs (``follow``)
         self._steps0 = s.steps
 
+    def take_over(self, old: ALE) -> dict:
+        """Go on from ``old``, the ALE of the mesh this one's replaced (a rezone): its counters,
+        its tracers and material points carried onto this mesh (collective). Returns the
+        carried material point of each of ``old``'s, by ``id``."""
+        self.stats = old.stats
+        self.smoother.backoffs = old.smoother.backoffs
+        if old.tracers is not None:
+            self.tracers = old.tracers.carried(self)
+        self.followers = [f.carried(self) for f in old.followers]
+        return {id(f): g for f, g in zip(old.followers, self.followers)}
+
     def follow(self, points: np.ndarray) -> Tracers:
         """Material points seeded now at ``points`` and carried through every remap."""
         self.followers.append(Tracers(self, 0, 0, points))

@@ -41,6 +41,7 @@ import numpy as np
 from mpi4py import MPI
 
 from silo_dolfinx._jit_cache import numba
+from silo_dolfinx._mpi import reduce_scalar
 
 TWO_PI = 2.0 * math.pi
 MAX_VERTS = 16  # a convex quadrilateral clipped by another has at most 8 vertices
@@ -268,6 +269,14 @@ class Transfer:
 
     # ------------------------------------------------------------------ cells
     @property
+    def gap_volume(self) -> float:
+        """Volume of the new cells that no old cell covers (global, m³): where the old material
+        had come away from the wall, or the new surface passes above the old; the mass around
+        it spreads into it."""
+        covered = np.bincount(self.pair_new, weights=self.w, minlength=self.new.shape[0])
+        return self.comm.allreduce(float(np.sum(np.maximum(self.new_volumes - covered, 0.0))))
+
+    @property
     def uncovered_mass(self) -> float:
         """Mass of the old cells no new cell overlaps (lost by the transfer; global)."""
         o = self.old
@@ -331,3 +340,153 @@ def node_velocities(index_map, cell_nodes: np.ndarray, corner_mass: np.ndarray,
     if m.size and m.min() <= 0.0:
         raise ValueError(f"{int(np.sum(m <= 0.0))} new node(s) overlap no old material")
     return acc[:, 1:] / m[:, None]
+
+
+# ---------------------------------------------------------------------------- the rezone of a discharge
+class Rezoner:
+    """Re-meshes a discharge when its mesh has fallen behind the material: once the stable Δt
+    has fallen by ``ale.rezone_dt_fall`` below its value after the opening (or the last rezone)
+    and the cell that sets it is shorter by as much than the shortest cell then - or once the
+    worst cell's scaled Jacobian (the discharge monitor's last sample) has fallen below
+    ``ale.rezone_min_quality`` - right after a remap (the outlet's nodes are then on the outlet plane and the surface on
+    the material), the material domain - axis, outlet, wall up to the top corner, the free
+    surface through its nodes - is meshed again by the scene's mesher at the scene's element
+    size (unstructured, relocated), the model moves to it (:meth:`SiloModel.move_to`), the
+    state comes over by :class:`Transfer`, ALE starts again on the new mesh with the old one's
+    tracers and counters, and the outputs go on (VTX fields in new files, ``_rezone<k>``).
+    What the transfer changes in kinetic and elastic energy is booked with the remap's.
+
+    The rows a draining fill squeezes under its falling surface are where Δt falls (the ch. 4
+    hopper: docs/performance.md); a fresh mesh of the smaller domain has the scene's cells
+    again, and fewer of them. Checkpoints stop at the first rezone (the one before it resumes
+    the run, which then rezones again where it did)."""
+
+    CHECKPOINT = ("dt_ref", "length_ref")  # (a checkpoint comes before the first rezone: see above)
+
+    def __init__(self, model):
+        self.model = model
+        self.fall = model.scene.ale.rezone_dt_fall
+        self.min_quality = model.scene.ale.rezone_min_quality
+        self.dt_ref = self.length_ref = None  # the stable Δt and smallest cell length after the opening or the last rezone
+        self.records: list[dict] = []
+
+    @staticmethod
+    def wanted(scene) -> bool:
+        a = scene.ale
+        return a.enabled and scene.discharge.mode != "none" and (a.rezone_dt_fall > 0.0 or a.rezone_min_quality > 0.0)
+
+    def due(self) -> bool:
+        """After a step: whether to rezone now (the same answer on every rank: Δt is global)."""
+        ale = self.model.ale
+        if ale is None or not ale.due():
+            return False
+        s = self.model.solver
+        if self.dt_ref is None:
+            self._reference()
+        monitor = self.model.outputs.monitor if self.model.outputs is not None else None
+        if monitor is not None and monitor.min_quality < self.min_quality:  # (the last sample's: global)
+            return True
+        if self.fall <= 0.0 or s.dt_crit >= (1.0 - self.fall) * self.dt_ref:
+            return False
+        # a cell dilated at the outlet sets a smaller Δt that no mesh cures: only a cell shrunk as
+        # much as Δt fell is the mesh's doing (its length, not its density)
+        return s.limiting_cell(refresh=False)["length"] < (1.0 - self.fall) * self.length_ref
+
+    def _reference(self) -> None:
+        """Δt and the smallest cell length now: what the next rezone waits for them to fall from."""
+        s = self.model.solver
+        self.dt_ref = s.dt_crit
+        self.length_ref = reduce_scalar(s.comm, float(s.q.cells.L.min(initial=np.inf)), MPI.MIN)
+
+    def rezone(self) -> dict:
+        """Mesh the material again and carry the state over (collective); returns its record."""
+        import time
+
+        from silo_dolfinx.ale import ALE
+        from silo_dolfinx.geometry.cells import cell_corners
+
+        started = time.perf_counter()
+        model, s, ale = self.model, self.model.solver, self.model.ale
+        comm = s.comm
+        old = self._old_state()
+        before = s.mechanical_energy_local()
+        record = {"t": s.t, "cells_before": model.sm.num_cells_global(), "dt_before": s.dt_crit,
+                  "kinetic_before": comm.allreduce(s.kinetic_energy_local()),
+                  "mass_before": float(np.sum(old.rho * old.volumes))}
+
+        sm = remesh(model.scene, ale.smoother.surface(s.x), comm)
+        model.move_to(sm)
+        tr = Transfer(comm, old, cell_corners(sm.mesh))
+        elastic = self._carry(tr)
+        model.after_remap()  # gravity (and surcharge) on the new mass
+        after = s.kinetic_energy_local() + elastic
+        s.energy.remap += before - after  # booked as the remap's upwinding is
+
+        new_ale = ALE(model, model.scene.ale)
+        carried = new_ale.take_over(ale)
+        model.hooks[model.hooks.index(ale)] = new_ale
+        model.ale = model.effects["ale"].ale = new_ale
+        if model.outputs is not None:
+            model.outputs.after_rezone(model, carried, len(self.records) + 1)
+        self._reference()
+        record.update(cells_after=sm.num_cells_global(), dt_after=s.dt_crit,
+                      mass_after=comm.allreduce(float(np.dot(s.rho, s.dV))),
+                      uncovered_mass=tr.uncovered_mass, gap_volume=tr.gap_volume,
+                      kinetic_after=comm.allreduce(s.kinetic_energy_local()), energy_removed=comm.allreduce(before - after),
+                      seconds=round(comm.allreduce(time.perf_counter() - started, op=MPI.MAX), 3))
+        self.records.append(record)
+        return record
+
+    def _old_state(self) -> OldState:
+        """The solver's state as cells (density of the exact volume, mass-weighted means of the
+        stress and the law's state) and corner velocities, gathered on every rank."""
+        from silo_dolfinx.ale.remap import cell_state, cell_volume_density
+        from silo_dolfinx.geometry.cells import cell_corners
+
+        s, ale = self.model.solver, self.model.ale
+        nq, no = s.nq, s.n_cells_owned
+        vol, rho = np.zeros(no), np.zeros(no)
+        cell_volume_density(s.rho, nq, s.dV, vol, rho)
+        means, lo, hi = (np.zeros((no, ale.k)) for _ in range(3))
+        for j0, a in ale._field_arrays():
+            cell_state(a, nq, s.dV, vol, j0, means, lo, hi)
+        corners = cell_corners(self.model.sm.mesh)
+        exact = TWO_PI * np.abs([_r_moment(c[:, 0], c[:, 1]) for c in corners])  # (one point: not Σ dV)
+        return gather(s.comm, corners, rho * vol / exact, means, s.v[s.node_dof[s.cell_nodes[:no]]])
+
+    def _carry(self, tr: Transfer) -> float:
+        """The transferred state into the solver on its new mesh, and its rebuild; returns this
+        rank's elastic energy (as :meth:`ExplicitSolver.after_remap`)."""
+        from silo_dolfinx.geometry.cells import cycle_nodes, qp_volumes
+
+        s, mesh = self.model.solver, self.model.sm.mesh
+        nq, no = s.nq, s.n_cells_owned
+        rho, means = tr.cells()
+        dV = np.zeros(no * nq)
+        qp_volumes(np.ascontiguousarray(s.x[:, :2]), s.cell_tensor[:no], np.ascontiguousarray(s.forms.points, float),
+                   np.ascontiguousarray(s.forms.weights, float), no, dV)
+        # the density whose quadrature volumes (one point: not the exact volume) hold the mass
+        s.rho.reshape(-1, nq)[:] = (rho * tr.new_volumes / dV.reshape(-1, nq).sum(axis=1))[:, None]
+        j0 = 0
+        for name, c in [("sig", 4)] + list(s.point_fields.items()):
+            a = (s.sig if name == "sig" else s.state[name]).reshape(no, nq, c)
+            a[:] = 0.0 if name == "hourglass" else means[:, None, j0:j0 + c]  # a stored force is the old mesh's
+            j0 += c
+        s.v[s.node_dof] = node_velocities(mesh.geometry.index_map(), cycle_nodes(mesh, no), *tr.corner_velocities())
+        return s.after_remap(dV, None)[1]
+
+
+def remesh(scene, surface: np.ndarray, comm):
+    """A mesh of the scene's silo holding material up to ``surface`` (points from the axis to
+    the wall), at the scene's element size: the surface is resampled at that size (the mesher
+    puts a spline through the points) and meshed unstructured without layers (collective)."""
+    from dataclasses import replace
+
+    from silo_dolfinx.geometry.mesher import MeshOptions, create_mesh
+
+    opts = replace(MeshOptions.from_scene(scene), structured=False, layer_heights=())
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(surface, axis=0), axis=1))])
+    m = max(2, int(round(arc[-1] / opts.element_size)))
+    at = np.linspace(0.0, arc[-1], m + 1)
+    pts = np.column_stack([np.interp(at, arc, surface[:, 0]), np.interp(at, arc, surface[:, 1])])
+    return create_mesh(scene.outline.with_surface(pts), opts, comm)

@@ -191,6 +191,11 @@ class Smoother:
         self.comm.Allgatherv(np.ascontiguousarray(x[self._top_all]), [self._top_buf, counts, displs, MPI.DOUBLE])
         return self._top_buf.reshape(-1, 2)[self._top_order]  # owned nodes: each node once
 
+    def surface(self, x: np.ndarray) -> np.ndarray:
+        """The free surface at node positions ``x``: its nodes from the axis to the wall, on
+        every rank (collective)."""
+        return self._top_polyline(np.ascontiguousarray(x[:, :2])).copy()
+
     def _top_corners(self, pts: np.ndarray) -> tuple[float, float]:
         """(arclength of the wall corner, height of the axis corner) of a top polyline."""
         kind, geo, s0, n_end, _ = self.wall.arrays

@@ -78,6 +78,36 @@ class Tracers:
         self.solver = ale.solver
         self.count = self.comm.allreduce(int(keep.sum()), op=MPI.SUM)
 
+    def carried(self, ale) -> Tracers:
+        """These tracers on the mesh of another ALE (a rezone, :mod:`.rezone`): each located
+        afresh at its current position on the new mesh (collective), with its id, row, initial
+        position and the record of those already discharged. A point the new mesh does not
+        hold (a sliver of the old free surface that the new one, a spline through the surface
+        nodes, cuts off) goes to the centre of the nearest new cell: a shift of under a cell."""
+        pos = self.positions()
+        everyone = self.comm.allgather((pos, self.id, self.row, self.initial))
+        pts = np.concatenate([e[0] for e in everyone]).reshape(-1, 2)
+        x = np.ascontiguousarray(ale.mesh.geometry.x[:, :2])
+        cn, n = ale.remapper.cn_tensor, ale.remapper.n_owned
+        found = (_locate_brute(x, cn, n, pts)[0] >= 0).astype(np.int64)
+        self.comm.Allreduce(MPI.IN_PLACE, found, op=MPI.MAX)
+        if not found.all():
+            lost = np.nonzero(found == 0)[0]
+            centres = x[cn[:n]].mean(axis=1)
+            dist = np.linalg.norm(pts[lost][:, None] - centres[None], axis=2) if n else np.full((lost.size, 1), np.inf)
+            j = dist.argmin(axis=1)
+            cands = self.comm.allgather((dist[np.arange(lost.size), j], centres[j] if n else np.zeros((lost.size, 2))))
+            best = np.argmin([c[0] for c in cands], axis=0)
+            pts[lost] = np.array([cands[b][1][i] for i, b in enumerate(best)]).reshape(-1, 2)
+        new = Tracers(ale, 0, 0, pts)
+        ids = np.concatenate([e[1] for e in everyone]).astype(np.int64)
+        rows = np.concatenate([e[2] for e in everyone]).astype(np.int64)
+        initial = np.concatenate([e[3] for e in everyone]).reshape(-1, 2)
+        new.id, new.row, new.initial = ids[new.id], rows[new.id], initial[new.id]
+        new._gone = {k: list(v) for k, v in self._gone.items()}
+        new.count = self.count
+        return new
+
     def positions(self, x: np.ndarray | None = None) -> np.ndarray:
         """Current positions of this rank's tracers."""
         x = np.ascontiguousarray(self.solver.mesh.geometry.x[:, :2]) if x is None else x

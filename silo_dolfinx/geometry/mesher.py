@@ -328,10 +328,19 @@ def _unstructured(outline: Outline, opts: MeshOptions, scale: float = 1.0) -> No
             c = occ.addPoint(p.center[0], p.center[1], 0.0)
             curves.append(occ.addCircleArc(prev, c, nxt))
         prev = nxt
-    p_axis1 = occ.addPoint(0.0, hf, 0.0)
-    curves += [occ.addLine(prev, p_axis1), occ.addLine(p_axis1, p_axis0)]
+    top_curves = []
+    if outline.surface is None:  # the flat top of the fill
+        p_axis1 = occ.addPoint(0.0, hf, 0.0)
+        top_curves.append(occ.addLine(prev, p_axis1))
+    else:  # a free surface through the given points (axis first): one curve, meshed at the size field
+        pts = [prev] + [occ.addPoint(float(r), float(z), 0.0) for r, z in outline.surface[-2::-1]]
+        top_curves.append(occ.addSpline(pts) if len(pts) > 2 else occ.addLine(*pts))
+        p_axis1 = pts[-1]
+    curves += top_curves + [occ.addLine(p_axis1, p_axis0)]
     surf = occ.addPlaneSurface([occ.addCurveLoop(curves)])
     cuts = [z for z in opts.layer_heights if 1e-9 * hf < z < hf * (1 - 1e-9)]
+    if cuts and outline.surface is not None:
+        raise MeshingError("filling-layer cuts and a free-surface polyline together: a rezoned mesh has no layers")
     if cuts:
         rmax = 2.0 * outline.r_max + 1.0
         lines = [occ.addLine(occ.addPoint(-1.0, z, 0.0), occ.addPoint(rmax, z, 0.0)) for z in cuts]
@@ -349,7 +358,7 @@ def _unstructured(outline: Outline, opts: MeshOptions, scale: float = 1.0) -> No
             groups["axis"].append(c)
         elif zmax < tol and xmax <= outline.outlet_radius + tol:
             groups["outlet"].append(c)
-        elif zmin > hf - tol:
+        elif (c in top_curves) if outline.surface is not None else zmin > hf - tol:
             groups["top"].append(c)
         else:
             groups["wall"].append(c)

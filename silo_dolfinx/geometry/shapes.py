@@ -38,6 +38,20 @@ class Outline:
     fill_height: float
     floor_pieces: int  # number of horizontal wall pieces at z = 0 (a flat floor)
     transition_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    #: the free surface as a polyline (m, 2) from the axis to the wall, when it is not the flat
+    #: top at fill_height (a rezoned discharge: :meth:`with_surface`)
+    surface: np.ndarray | None = None
+
+    def with_surface(self, points: np.ndarray) -> Outline:
+        """This silo holding material up to the surface ``points`` (m, 2): from the axis
+        (r = 0) to the wall, its last point on the wall. Its fill height is the surface's top."""
+        from dataclasses import replace
+
+        pts = np.array(points, float)
+        if pts.ndim != 2 or pts.shape[0] < 2 or abs(pts[0, 0]) > 1e-9 * max(self.r_max, 1.0):
+            raise ValueError("a surface runs from the axis (r = 0) to the wall: (m ≥ 2, 2) points")
+        pts[0, 0] = 0.0
+        return replace(self, fill_height=float(pts[:, 1].max()), surface=pts)
 
     @property
     def height(self) -> float:
@@ -52,7 +66,9 @@ class Outline:
 
     @property
     def wall_length_below_fill(self) -> float:
-        return float(self.wall.s_at_height(self.fill_height)[0])
+        """Arclength of the wall up to the material's top corner on it."""
+        z = self.fill_height if self.surface is None else float(self.surface[-1, 1])
+        return float(self.wall.s_at_height(z)[0])
 
     @property
     def r_max(self) -> float:

@@ -93,6 +93,15 @@ class Outputs:
         self.monitor = DischargeMonitor(model, self.results, model.ale)
         self.history.append(self.monitor)
 
+    def after_rezone(self, model, carried: dict, k: int) -> None:
+        """The model moved to a new mesh (its ``k``-th rezone): every stream built on the old
+        one is built again; ``carried`` maps each old material point to its carried self."""
+        for stream in self.history:
+            if hasattr(stream, "after_rezone"):
+                stream.after_rezone(model, carried)
+        if self.fields is not None:
+            self.fields.after_rezone(k)
+
     def discharge_summary(self) -> dict:
         return self.monitor.summary() if self.monitor is not None else {}
 
@@ -294,6 +303,16 @@ class PointHistory:
         cols = np.column_stack([v[:, :6], p, q, ratio, v[:, 6:]])
         self.csv.write(*_indexed_rows(self.model.solver.t, cols))
 
+    def after_rezone(self, model, carried: dict) -> None:
+        """A new mesh: its cells, the material points carried onto it (the interval restarts
+        at the next step: the solver's quadrature data are new)."""
+        from silo_dolfinx.geometry.cells import tensor_nodes
+
+        self.cn = tensor_nodes(model.sm.mesh, model.solver.n_cells_owned)
+        self._x = np.zeros((model.sm.mesh.geometry.x.shape[0], 2))
+        if self.follower is not None:
+            self.follower = carried[id(self.follower)]
+
     def _seed(self):
         """The material points, seeded where the fixed points are now."""
         ale = self.model.ale
@@ -355,7 +374,9 @@ class FieldOutput:
 
     def __init__(self, model, results: Results, interval: float):
         self.model, self.folder, self.interval = model, results.path("fields"), interval
-        self.part = results.resumed  # 0; a resumed run's VTX files are nodes_resumed<part>.bp, ...
+        # a resumed run's VTX files are nodes_resumed<k>.bp, ..., a rezoned mesh's nodes_rezone<k>.bp
+        self.tail = f"_resumed{results.resumed}" if results.resumed else ""
+        self.mesh_number = 0
         self.next = 0.0
         self.writer = None
         self.written = 0  # snapshots so far (their numbering continues in a resumed run)
@@ -371,8 +392,15 @@ class FieldOutput:
         if self._last != t:
             self.write(t)
 
+    def after_rezone(self, k: int) -> None:
+        """The ``k``-th rezone: the next fields go into new VTX files, on the new mesh."""
+        if self.writer is not None:
+            self.writer.close()
+        self.writer = None
+        self.tail, self.mesh_number = f"_rezone{k}", k
+
     def write(self, t: float) -> None:
-        self.writer = self.writer or FieldWriter(self.model, self.folder, self.part)
+        self.writer = self.writer or FieldWriter(self.model, self.folder, self.tail, self.mesh_number)
         self.writer.write(t, self.written)
         self.written += 1
         self._last = t
@@ -388,10 +416,10 @@ class FieldWriter:
 
     CELL_FIELDS = ("stress_rr", "stress_zz", "stress_tt", "stress_rz", "p", "q", "q_over_p", "density")
 
-    def __init__(self, model, folder: Path, part: int = 0):
+    def __init__(self, model, folder: Path, tail: str = "", mesh_number: int = 0):
         from dolfinx import fem, io
 
-        self.model = model
+        self.model, self.mesh_number = model, mesh_number  # (the snapshots' ``mesh``: rezones so far)
         s = model.solver
         mesh = model.sm.mesh
         if mesh.comm.rank == 0:
@@ -401,7 +429,6 @@ class FieldWriter:
         W = fem.functionspace(mesh, ("DG", 0))
         self.state_fields = [k for k, c in s.material.state_fields.items() if c == 1]
         self.cell = {n: fem.Function(W, name=n) for n in list(self.CELL_FIELDS) + self.state_fields}
-        tail = f"_resumed{part}" if part else ""  # VTX cannot append: a resumed run starts new files
         self.w_nodes = io.VTXWriter(mesh.comm, folder / f"nodes{tail}.bp", [s.forms.velocity, self.disp], engine="BP4")
         self.w_cells = io.VTXWriter(mesh.comm, folder / f"cells{tail}.bp", list(self.cell.values()), engine="BP4")
         self.folder = folder
@@ -446,7 +473,7 @@ class FieldWriter:
         tracers = ale.tracers.gather() if ale is not None and ale.tracers is not None else None
         if parts is None:
             return
-        data = {"t": t, "corners": np.concatenate([p[0] for p in parts]),
+        data = {"t": t, "mesh": self.mesh_number, "corners": np.concatenate([p[0] for p in parts]),
                 "node_xy": np.concatenate([p[2] for p in parts]), "node_velocity": np.concatenate([p[3] for p in parts])}
         for name in cell_values:
             data[f"cell_{name}"] = np.concatenate([p[1][name] for p in parts])
@@ -468,21 +495,12 @@ class DischargeMonitor:
                   "_z_top0")
 
     def __init__(self, model, results: Results, ale=None):
-        from dolfinx import la
-
-        from silo_dolfinx.geometry.cells import cycle_nodes, orientation, tensor_nodes
-
-        self.model, self.ale, self.results = model, ale, results
+        self.model, self.results = model, results
         s = model.solver
         self.outlet_csv = results.table(schema.OUTLET)
         self.mesh_csv = results.table(schema.MESH_QUALITY)
-        self._form = s.forms.tributary_area_form(model.sm.facet_tags, FACET_TAGS["outlet"])
-        self._area = la.vector(s.V.dofmap.index_map, 2)
-        mesh = model.sm.mesh
-        self._cn_t = tensor_nodes(mesh, s.n_cells_owned)
-        self._cn = cycle_nodes(mesh, s.n_cells_owned)
-        self._orient = orientation(mesh.geometry.x, self._cn)
-        self._axis_top = np.intersect1d(model.sm.nodes_on("top"), model.sm.nodes_on("axis"))
+        self.after_rezone(model)
+        self.ale = ale
         self._z_top0 = self._axis_top_z()
         self.t0 = s.t
         self.mass0 = self._mass_in_silo()[0]
@@ -491,6 +509,23 @@ class DischargeMonitor:
         self.min_quality, self.aspect0 = self._quality()
         self.axis_top_height = self._z_top0
         self.flow = []  # (t, rate, v_mean, max aspect ratio, discharged, nominal) samples
+
+    def after_rezone(self, model, carried: dict | None = None) -> None:
+        """What the monitor takes from the mesh (again after a rezone; its records go on)."""
+        from dolfinx import la
+
+        from silo_dolfinx.geometry.cells import cycle_nodes, orientation, tensor_nodes
+
+        s, mesh = model.solver, model.sm.mesh
+        self.ale = model.ale
+        self._form = s.forms.tributary_area_form(model.sm.facet_tags, FACET_TAGS["outlet"])
+        self._area = la.vector(s.V.dofmap.index_map, 2)
+        self._cn_t = tensor_nodes(mesh, s.n_cells_owned)
+        self._cn = cycle_nodes(mesh, s.n_cells_owned)
+        self._orient = orientation(mesh.geometry.x, self._cn)
+        self._axis_top = np.intersect1d(model.sm.nodes_on("top"), model.sm.nodes_on("axis"))
+        if carried is not None:  # the new mesh's worst cell (the rezone and the stop test read it)
+            self.min_quality = self._quality()[0]
 
     def _axis_top_z(self) -> float:
         x = self.model.sm.mesh.geometry.x

@@ -467,6 +467,10 @@ def _cross_checks(out: dict[str, Any]) -> list[Problem]:
         p.append(Problem("ale", "mid_area_weight", f"laplacian_weight + mid_area_weight = {tot:g}: "
                          "must be in (0, 1]. Fix: e.g. laplacian_weight = 0.5, mid_area_weight = 0.5."))
     d = out["discharge"]
+    if 0.0 < a["rezone_min_quality"] <= d["min_mesh_quality"]:
+        p.append(Problem("ale", "rezone_min_quality", f"= {_fmt(a['rezone_min_quality'])} is not above "
+                         f"discharge.min_mesh_quality = {_fmt(d['min_mesh_quality'])}: the discharge would end before "
+                         "the mesh is made again. Fix: rezone_min_quality above it (e.g. 0.3), or 0 (never)."))
     if d["mode"] != "none" and d["duration"] <= 0.0:
         p.append(Problem("discharge", "duration", f"= {_fmt(d['duration'])} with mode = "
                          f"{d['mode']!r}: a discharge needs a positive duration. Fix: e.g. "

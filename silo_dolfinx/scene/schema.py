@@ -420,6 +420,17 @@ ALE = Section(
           "surface (no pressure, no strength) does not do by itself. About the solid's angle of repose "
           "(≈ its friction angle); 0 = off (the surface follows the material wherever it goes).",
           lo=0.0, hi=89.0),
+        F("rezone_dt_fall", 0.0, "-", "Re-mesh the material during the discharge once the stable Δt has "
+          "fallen by this fraction below its value after the opening (or the last re-mesh): the domain "
+          "as it is then - the free surface through its nodes - is meshed again at the scene's element "
+          "size and the state carried over conservatively (silo_dolfinx.ale.rezone). A draining fill "
+          "squeezes the rows under its falling surface, which sets Δt; a fresh mesh has the scene's "
+          "cells again, and fewer of them. Only when the cell that sets Δt has shrunk by as much (a "
+          "cell dilated at the outlet sets a smaller Δt that no mesh cures). 0 = never. Checkpoints "
+          "stop at the first re-mesh.", lo=0.0, hi=0.9),
+        F("rezone_min_quality", 0.0, "-", "Re-mesh the material (as rezone_dt_fall does) once the worst "
+          "cell's scaled Jacobian falls below this, instead of ending the discharge at "
+          "discharge.min_mesh_quality: set it above that. 0 = never.", lo=0.0, hi=0.9),
         C("smoothing_objective", ("graded", "uniform"), "graded",
           "graded: smooth only the distortion relative to the initial mesh (keeps its refinement); "
           "uniform: plain eqs. 3-4/3-5 (evens out element sizes)."),

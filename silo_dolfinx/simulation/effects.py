@@ -215,12 +215,16 @@ class OutletDrive(Effect):
         self.model = model
         d = model.scene.discharge
         self.velocity = ramp_velocity(d.velocity, d.ramp_time)
+        self.t0 = None  # the opening time, once the discharge has begun
 
     def begin(self, stage) -> None:
-        if stage.name != "discharge":
-            return
+        if stage.name == "discharge":
+            self.drive(self.model.solver.t)
+
+    def drive(self, t0: float) -> None:
+        """Drive the outlet nodes from the opening time ``t0`` on (again after a rezone)."""
         s, u = self.model.solver, self.velocity
-        t0 = s.t
+        self.t0 = t0
         c = VelocityConstraint(self.model.outlet_dofs_all, 1, lambda t: -u(t - t0))
         s.constraints.append(c)
         for contact in s.contacts:

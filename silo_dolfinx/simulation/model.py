@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from silo_dolfinx.ale.rezone import Rezoner
 from silo_dolfinx.geometry.mesher import FACET_TAGS, SiloMesh
 from silo_dolfinx.invariants import stress_free_pressure
 from silo_dolfinx.materials import make_material
@@ -24,10 +25,24 @@ class SiloModel:
     """A scene's silo on the explicit solver: walls, gate, axis, loads, layers, stages."""
 
     def __init__(self, scene, sm: SiloMesh):
-        self.scene, self.sm, self.outline = scene, sm, sm.outline
+        self.scene = scene
         self.material = make_material(scene.material)
-        self.solver = s = ExplicitSolver(sm.mesh, self.material, Numerics.from_scene(scene),
-                                         gravity=scene.loads.gravity)
+        self.solver = ExplicitSolver(sm.mesh, self.material, Numerics.from_scene(scene), gravity=scene.loads.gravity)
+        self._attach(sm)
+        self.hooks: list = []  # post-step hooks (before_step / after_step): the point history, ALE
+        self.ale = None  # the discharge's ALE, once it runs
+        self.outputs = None  # output streams (simulation.run sets them)
+        self.effects = fx.compose(self)
+        self.stages = stages.compose(scene)
+        # the discharge's rezoning, if the scene asks for it (silo_dolfinx.ale.rezone)
+        self.rezoner = Rezoner(self) if Rezoner.wanted(scene) else None
+        # below it a cell is stress-free and its q/p undefined (output)
+        self.p_stress_free = stress_free_pressure(scene.material.density, scene.loads.gravity, self.outline.fill_height)
+
+    def _attach(self, sm: SiloMesh) -> None:
+        """What the model takes from its mesh: node sets, the axis constraint, the wall."""
+        s = self.solver
+        self.sm, self.outline = sm, sm.outline
         owned = lambda nodes: nodes[s.node_dof[nodes] < s.n_owned]  # noqa: E731
         self.wall_nodes = owned(sm.nodes_on("wall"))
         self.outlet_nodes = owned(sm.nodes_on("outlet"))
@@ -35,13 +50,25 @@ class SiloModel:
         self.outlet_dofs_all = s.node_dof[sm.nodes_on("outlet")]
         s.constraints.append(VelocityConstraint(self.axis_dofs, 0))
         self.contact_wall_open = self.outline.contact_wall()
-        self.hooks: list = []  # post-step hooks (before_step / after_step): the point history, ALE
-        self.ale = None  # the discharge's ALE, once it runs
-        self.outputs = None  # output streams (simulation.run sets them)
+        self.__dict__.pop("_area_form", None)  # wall_state's, on the old mesh
+
+    def move_to(self, sm: SiloMesh) -> None:
+        """Go on discharging on another mesh of the material (a rezone: the caller carries the
+        state over, :mod:`silo_dolfinx.ale.rezone`): the solver and every effect are built
+        again on ``sm`` and put where the discharge has them - full gravity (and surcharge) on
+        every cell, the gate open, the outlet driven from its opening time. ALE, outputs and
+        state are the caller's."""
+        drive = self.effects.get("outlet_drive")
+        self.solver.move_to(sm.mesh)
+        self._attach(sm)
         self.effects = fx.compose(self)
-        self.stages = stages.compose(scene)
-        # below it a cell is stress-free and its q/p undefined (output)
-        self.p_stress_free = stress_free_pressure(scene.material.density, scene.loads.gravity, self.outline.fill_height)
+        s = self.solver
+        self.effects["gravity"].load(s.active_cells, None, SmoothRamp(s.t, 0.0))
+        if "surcharge" in self.effects:
+            self.effects["surcharge"].load(SmoothRamp(s.t, 0.0))
+        self.effects["gate"].remove()
+        if drive is not None and drive.t0 is not None:
+            self.effects["outlet_drive"].drive(drive.t0)
 
     # ------------------------------------------------------------------ effects
     @property

@@ -158,7 +158,8 @@ class Discharge(Stage):
     def record(self, model) -> dict:
         ended = {"ended_on": "mesh quality", "ended_because": self.ended_early} if self.ended_early else \
             {"ended_on": "duration"}
-        return {"mode": self.mode, **ended, **model.outputs.discharge_summary()}
+        rezones = {"rezones": model.rezoner.records} if model.rezoner is not None else {}
+        return {"mode": self.mode, **ended, **model.outputs.discharge_summary(), **rezones}
 
 
 def compose(scene) -> list[Stage]:
@@ -200,8 +201,8 @@ def run_stages(model, progress, checkpoints: Checkpoints | None = None) -> list[
 
 def advance(model, stage: Stage, t_end: float, label: str, progress, checkpoints: Checkpoints | None = None) -> None:
     """The time loop of thesis ch. 3: a Lagrangian step (predict → contact → update →
-    internal force → Δt), then the post-step hooks (every N steps: smooth + remap), output,
-    and now and then a checkpoint."""
+    internal force → Δt), then the post-step hooks (every N steps: smooth + remap), a rezone
+    when the scene asks for one and Δt has fallen, output, and now and then a checkpoint."""
     s = model.solver
     while s.t < t_end * (1 - 1e-12) - 1e-15:
         s.dt = min(s.dt, t_end - s.t)  # land on the stage's end
@@ -210,6 +211,8 @@ def advance(model, stage: Stage, t_end: float, label: str, progress, checkpoints
         s.step()
         for hook in model.hooks:
             hook.after_step()
+        if model.rezoner is not None and model.rezoner.due():  # Δt fell behind the draining fill
+            model.rezoner.rezone()
         model.outputs.maybe(stage.name)
         _stop_if_asked(model)
         progress(label, s.t, s.steps, s.dt)

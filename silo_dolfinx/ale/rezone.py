@@ -295,9 +295,9 @@ class Transfer:
         for j in range(k):
             means[:, j] = np.bincount(self.pair_new, weights=dm * o.means[self.pair_old, j], minlength=n)
         means /= np.where(mass > 0.0, mass, 1.0)[:, None]
-        if n and mass.min() <= 0.0:
-            raise ValueError(f"{int(np.sum(mass <= 0.0))} new cell(s) overlap no old cell: the new mesh covers "
-                             "ground the material does not")
+        empty = self.comm.allreduce(int(np.sum(mass <= 0.0)))  # (raised on every rank alike)
+        if empty:
+            raise ValueError(f"{empty} new cell(s) overlap no old cell: the new mesh covers ground the material does not")
         return mass / self.new_volumes, means
 
     # ------------------------------------------------------------------ nodes
@@ -337,8 +337,9 @@ def node_velocities(index_map, cell_nodes: np.ndarray, corner_mass: np.ndarray,
     vec.scatter_reverse(la.InsertMode.add)
     vec.scatter_forward()
     m = acc[:, 0]
-    if m.size and m.min() <= 0.0:
-        raise ValueError(f"{int(np.sum(m <= 0.0))} new node(s) overlap no old material")
+    empty = index_map.comm.allreduce(int(np.sum(m <= 0.0)))  # (raised on every rank alike)
+    if empty:
+        raise ValueError(f"{empty} new node(s) overlap no old material")
     return acc[:, 1:] / m[:, None]
 
 

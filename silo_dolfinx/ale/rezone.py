@@ -324,23 +324,31 @@ def node_velocities(index_map, cell_nodes: np.ndarray, corner_mass: np.ndarray,
                     corner_momentum: np.ndarray) -> np.ndarray:
     """Velocities (n_local, 2) of the local nodes (owned and ghost) of ``index_map`` from the
     corner sums of :meth:`Transfer.corner_velocities`: ``cell_nodes`` (n, 4) the new cells'
-    nodes in boundary-cycle order. The sums are added across ranks (collective)."""
+    nodes in boundary-cycle order. The sums are added across ranks (collective).
+
+    A node whose corner regions overlap no old material - a wall corner in the gap the
+    material had opened from the wall, a spline top a millimetre above the old polyline -
+    takes the mass-weighted velocity of its cells instead (every new cell overlaps some: see
+    :meth:`Transfer.cells`); only a node with no material in any of its cells is an error."""
     from dolfinx import la
 
-    vec = la.vector(index_map, 3)
-    acc = vec.array.reshape(-1, 3)
+    vec = la.vector(index_map, 6)
+    acc = vec.array.reshape(-1, 6)
     acc[:] = 0.0
     nodes = np.asarray(cell_nodes).ravel()
-    np.add.at(acc[:, 0], nodes, corner_mass.ravel())
-    np.add.at(acc[:, 1], nodes, corner_momentum[:, :, 0].ravel())
-    np.add.at(acc[:, 2], nodes, corner_momentum[:, :, 1].ravel())
+    cell_mass = np.repeat(corner_mass.sum(axis=1), 4)
+    cell_momentum = np.repeat(corner_momentum.sum(axis=1), 4, axis=0)
+    for k, w in enumerate((corner_mass.ravel(), corner_momentum[:, :, 0].ravel(), corner_momentum[:, :, 1].ravel(),
+                           cell_mass, cell_momentum[:, 0], cell_momentum[:, 1])):
+        np.add.at(acc[:, k], nodes, w)
     vec.scatter_reverse(la.InsertMode.add)
     vec.scatter_forward()
-    m = acc[:, 0]
+    own = acc[:, 0] > 0.0
+    m = np.where(own, acc[:, 0], acc[:, 3])
     empty = index_map.comm.allreduce(int(np.sum(m <= 0.0)))  # (raised on every rank alike)
     if empty:
-        raise ValueError(f"{empty} new node(s) overlap no old material")
-    return acc[:, 1:] / m[:, None]
+        raise ValueError(f"{empty} new node(s) have no old material in any of their cells")
+    return np.where(own[:, None], acc[:, 1:3], acc[:, 4:6]) / m[:, None]
 
 
 # ---------------------------------------------------------------------------- the rezone of a discharge
@@ -362,13 +370,14 @@ class Rezoner:
     again, and fewer of them. Checkpoints stop at the first rezone (the one before it resumes
     the run, which then rezones again where it did)."""
 
-    CHECKPOINT = ("dt_ref", "length_ref")  # (a checkpoint comes before the first rezone: see above)
+    CHECKPOINT = ("dt_ref", "length_ref", "fresh_quality")  # (a checkpoint comes before the first rezone: see above)
 
     def __init__(self, model):
         self.model = model
         self.fall = model.scene.ale.rezone_dt_fall
         self.min_quality = model.scene.ale.rezone_min_quality
         self.dt_ref = self.length_ref = None  # the stable Δt and smallest cell length after the opening or the last rezone
+        self.fresh_quality = np.inf  # the worst cell of the last fresh mesh (a nearly empty silo's: below the trigger)
         self.records: list[dict] = []
 
     @staticmethod
@@ -385,8 +394,8 @@ class Rezoner:
         if self.dt_ref is None:
             self._reference()
         monitor = self.model.outputs.monitor if self.model.outputs is not None else None
-        if monitor is not None and monitor.min_quality < self.min_quality:  # (the last sample's: global)
-            return True
+        if monitor is not None and monitor.min_quality < self.min_quality <= self.fresh_quality:
+            return True  # (the last sample's worst cell, global; not again if a fresh mesh is no better)
         if self.fall <= 0.0 or s.dt_crit >= (1.0 - self.fall) * self.dt_ref:
             return False
         # a cell dilated at the outlet sets a smaller Δt that no mesh cures: only a cell shrunk as
@@ -416,6 +425,7 @@ class Rezoner:
                   "mass_before": float(np.sum(old.rho * old.volumes))}
 
         sm = remesh(model.scene, ale.smoother.surface(s.x), comm)
+        x_old = s.x[:, :2].copy()  # the material points are read off it once the solver has moved
         model.move_to(sm)
         tr = Transfer(comm, old, cell_corners(sm.mesh))
         elastic = self._carry(tr)
@@ -424,16 +434,20 @@ class Rezoner:
         s.energy.remap += before - after  # booked as the remap's upwinding is
 
         new_ale = ALE(model, model.scene.ale)
-        carried = new_ale.take_over(ale)
+        carried = new_ale.take_over(ale, x_old)
         model.hooks[model.hooks.index(ale)] = new_ale
         model.ale = model.effects["ale"].ale = new_ale
         if model.outputs is not None:
             model.outputs.after_rezone(model, carried, len(self.records) + 1)
         self._reference()
+        if model.outputs is not None and model.outputs.monitor is not None:
+            self.fresh_quality = model.outputs.monitor.min_quality  # (refreshed on the new mesh)
         record.update(cells_after=sm.num_cells_global(), dt_after=s.dt_crit,
                       mass_after=comm.allreduce(float(np.dot(s.rho, s.dV))),
                       uncovered_mass=tr.uncovered_mass, gap_volume=tr.gap_volume,
                       kinetic_after=comm.allreduce(s.kinetic_energy_local()), energy_removed=comm.allreduce(before - after),
+                      tracer_shift=max([t.carry_shift for t in (new_ale.tracers, *new_ale.followers) if t is not None],
+                                       default=0.0),
                       seconds=round(comm.allreduce(time.perf_counter() - started, op=MPI.MAX), 3))
         self.records.append(record)
         return record

@@ -77,14 +77,17 @@ class Tracers:
         self._gone = {"id": [], "row": [], "t": [], "initial": []}
         self.solver = ale.solver
         self.count = self.comm.allreduce(int(keep.sum()), op=MPI.SUM)
+        self.carry_shift = 0.0  # (a rezone: see carried)
 
-    def carried(self, ale) -> Tracers:
+    def carried(self, ale, x_old: np.ndarray) -> Tracers:
         """These tracers on the mesh of another ALE (a rezone, :mod:`.rezone`): each located
-        afresh at its current position on the new mesh (collective), with its id, row, initial
-        position and the record of those already discharged. A point the new mesh does not
-        hold (a sliver of the old free surface that the new one, a spline through the surface
-        nodes, cuts off) goes to the centre of the nearest new cell: a shift of under a cell."""
-        pos = self.positions()
+        afresh at its current position - on the old mesh, whose node coordinates ``x_old``
+        (n, 2) the caller kept: the solver has moved on - on the new mesh (collective), with its
+        id, row, initial position and the record of those already discharged. A point the new
+        mesh does not hold (a sliver of the old free surface that the new one, a spline through
+        the surface nodes, cuts off) goes to the centre of the nearest new cell: a shift of under
+        a cell, the largest of which is the new tracers' ``carry_shift`` (m, global)."""
+        pos = self.positions(x_old)
         everyone = self.comm.allgather((pos, self.id, self.row, self.initial))
         pts = np.concatenate([e[0] for e in everyone]).reshape(-1, 2)
         x = np.ascontiguousarray(ale.mesh.geometry.x[:, :2])
@@ -98,8 +101,13 @@ class Tracers:
             j = dist.argmin(axis=1)
             cands = self.comm.allgather((dist[np.arange(lost.size), j], centres[j] if n else np.zeros((lost.size, 2))))
             best = np.argmin([c[0] for c in cands], axis=0)
-            pts[lost] = np.array([cands[b][1][i] for i, b in enumerate(best)]).reshape(-1, 2)
+            moved = np.array([cands[b][1][i] for i, b in enumerate(best)]).reshape(-1, 2)
+            shift = float(np.linalg.norm(moved - pts[lost], axis=1).max())
+            pts[lost] = moved
+        else:
+            shift = 0.0
         new = Tracers(ale, 0, 0, pts)
+        new.carry_shift = shift
         ids = np.concatenate([e[1] for e in everyone]).astype(np.int64)
         rows = np.concatenate([e[2] for e in everyone]).astype(np.int64)
         initial = np.concatenate([e[3] for e in everyone]).reshape(-1, 2)

@@ -145,15 +145,22 @@ class Discharge(Stage):
         self.ended_early = (f"[discharge] ended at t = {model.solver.t:.4g} s, {m.flow[-1][4]:.4g} kg of "
                             f"{m.mass0:.4g} discharged: the worst cell's scaled Jacobian fell to "
                             f"{m.min_quality:.3f}, below min_mesh_quality = {self.min_quality:g} (the fill's top on the "
-                            f"axis {m.axis_top_height:.3g} m above the outlet). The mesh keeps all its rows and cannot "
-                            "follow the fill further; results up to here are complete. (min_mesh_quality = 0 runs on "
-                            "until a cell turns inside out.)")
+                            f"axis {m.axis_top_height:.3g} m above the outlet). {self._why(model)} Results up to "
+                            "here are complete. (min_mesh_quality = 0 runs on until a cell turns inside out.)")
         ale = model.scene.ale
         if ale.enabled and ale.max_surface_slope == 0.0:
             self.ended_early += (" If that cell is at the free surface (a pit on the axis, a lip at a rough wall), set "
                                  "ale.max_surface_slope to about the solid's friction angle: the surface then slumps "
                                  "as grains would, and the run goes on.")
         return True
+
+    @staticmethod
+    def _why(model) -> str:
+        rz = model.rezoner
+        if rz is None:
+            return "The mesh keeps all its rows and cannot follow the fill further."
+        return (f"Meshed again {len(rz.records)} time(s), the fill has become too thin for cells of the element "
+                "size to follow it.")
 
     def record(self, model) -> dict:
         ended = {"ended_on": "mesh quality", "ended_because": self.ended_early} if self.ended_early else \

@@ -102,16 +102,15 @@ class ALE:
         self.followers: list[Tracers] = []  # material points of the outputs (``follow``)
         self._steps0 = s.steps
 
-    def take_over(self, old: ALE, x_old: np.ndarray) -> dict:
-        """Go on from ``old``, the ALE of the mesh this one's replaced (a rezone; ``x_old`` that
-        mesh's node coordinates, (n, 2)): its counters, its tracers and material points carried
-        onto this mesh (collective). Returns the carried material point of each of ``old``'s,
-        by ``id``."""
+    def take_over(self, old: ALE) -> dict:
+        """Go on from ``old``, the ALE of the mesh this one's replaced (a rezone): its counters,
+        its tracers and material points carried onto this mesh (collective). Returns the
+        carried material point of each of ``old``'s, by ``id``."""
         self.stats = old.stats
         self.smoother.backoffs = old.smoother.backoffs
         if old.tracers is not None:
-            self.tracers = old.tracers.carried(self, x_old)
-        self.followers = [f.carried(self, x_old) for f in old.followers]
+            self.tracers = old.tracers.carried(self)
+        self.followers = [f.carried(self) for f in old.followers]
         return {id(f): g for f, g in zip(old.followers, self.followers)}
 
     def follow(self, points: np.ndarray) -> Tracers:

@@ -425,7 +425,6 @@ class Rezoner:
                   "mass_before": float(np.sum(old.rho * old.volumes))}
 
         sm = remesh(model.scene, ale.smoother.surface(s.x), comm)
-        x_old = s.x[:, :2].copy()  # the material points are read off it once the solver has moved
         model.move_to(sm)
         tr = Transfer(comm, old, cell_corners(sm.mesh))
         elastic = self._carry(tr)
@@ -434,7 +433,7 @@ class Rezoner:
         s.energy.remap += before - after  # booked as the remap's upwinding is
 
         new_ale = ALE(model, model.scene.ale)
-        carried = new_ale.take_over(ale, x_old)
+        carried = new_ale.take_over(ale)
         model.hooks[model.hooks.index(ale)] = new_ale
         model.ale = model.effects["ale"].ale = new_ale
         if model.outputs is not None:

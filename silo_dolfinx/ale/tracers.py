@@ -76,18 +76,19 @@ class Tracers:
         self.out_pos = np.zeros((0, 2))
         self._gone = {"id": [], "row": [], "t": [], "initial": []}
         self.solver = ale.solver
+        self.mesh = mesh  # its own: after a rezone the solver's is another
         self.count = self.comm.allreduce(int(keep.sum()), op=MPI.SUM)
         self.carry_shift = 0.0  # (a rezone: see carried)
 
-    def carried(self, ale, x_old: np.ndarray) -> Tracers:
+    def carried(self, ale) -> Tracers:
         """These tracers on the mesh of another ALE (a rezone, :mod:`.rezone`): each located
-        afresh at its current position - on the old mesh, whose node coordinates ``x_old``
-        (n, 2) the caller kept: the solver has moved on - on the new mesh (collective), with its
-        id, row, initial position and the record of those already discharged. A point the new
+        afresh at its current position on its own (old) mesh - not the solver's, which has
+        moved on - on the new mesh (collective), with its id, row, initial position and the
+        record of those already discharged. A point the new
         mesh does not hold (a sliver of the old free surface that the new one, a spline through
         the surface nodes, cuts off) goes to the centre of the nearest new cell: a shift of under
         a cell, the largest of which is the new tracers' ``carry_shift`` (m, global)."""
-        pos = self.positions(x_old)
+        pos = self.positions()
         everyone = self.comm.allgather((pos, self.id, self.row, self.initial))
         pts = np.concatenate([e[0] for e in everyone]).reshape(-1, 2)
         x = np.ascontiguousarray(ale.mesh.geometry.x[:, :2])
@@ -118,7 +119,7 @@ class Tracers:
 
     def positions(self, x: np.ndarray | None = None) -> np.ndarray:
         """Current positions of this rank's tracers."""
-        x = np.ascontiguousarray(self.solver.mesh.geometry.x[:, :2]) if x is None else x
+        x = np.ascontiguousarray(self.mesh.geometry.x[:, :2]) if x is None else x
         return map_points(x, self.cn_tensor, self.cell, self.xi)
 
     def relocate(self, xL: np.ndarray, xS: np.ndarray) -> None:

@@ -501,13 +501,13 @@ class DischargeMonitor:
         self.mesh_csv = results.table(schema.MESH_QUALITY)
         self.after_rezone(model)
         self.ale = ale
-        self._z_top0 = self._axis_top_z()
+        now = self._measure()
+        self._z_top0 = self.axis_top_height = now["axis_top"]
         self.t0 = s.t
-        self.mass0 = self._mass_in_silo()[0]
+        self.mass0 = now["inside"]
         self._hist = deque([(s.t, 0.0)])
         self.worst_balance = 0.0
-        self.min_quality, self.aspect0 = self._quality()
-        self.axis_top_height = self._z_top0
+        self.min_quality, self.aspect0 = now["min_quality"], now["max_aspect"]
         self.flow = []  # (t, rate, v_mean, max aspect ratio, discharged, nominal) samples
 
     def after_rezone(self, model, carried: dict | None = None) -> None:
@@ -524,53 +524,46 @@ class DischargeMonitor:
         self._cn = cycle_nodes(mesh, s.n_cells_owned)
         self._orient = orientation(mesh.geometry.x, self._cn)
         self._axis_top = np.intersect1d(model.sm.nodes_on("top"), model.sm.nodes_on("axis"))
+        self._dV = np.zeros(s.n_cells_owned * s.nq)  # work arrays of _measure (at the history rate)
+        self._points = np.ascontiguousarray(s.forms.points, dtype=float)
+        self._weights = np.ascontiguousarray(s.forms.weights, dtype=float)
         if carried is not None:  # the new mesh's worst cell (the rezone and the stop test read it)
-            self.min_quality = self._quality()[0]
+            self.min_quality = self._measure()["min_quality"]
 
-    def _axis_top_z(self) -> float:
-        x = self.model.sm.mesh.geometry.x
-        z = float(x[self._axis_top, 1].max()) if self._axis_top.size else -np.inf
-        return self.model.sm.comm.allreduce(z, op=MPI.MAX)
-
-    def _mass_in_silo(self) -> tuple[float, float]:
-        """(mass in the silo, mass below the outlet plane) over all ranks (kg)."""
-        from silo_dolfinx.geometry.cells import qp_volumes
-
-        s = self.model.solver
-        x = np.ascontiguousarray(self.model.sm.mesh.geometry.x[:, :2])
-        dV = np.zeros(s.n_cells_owned * s.nq)
-        qp_volumes(x, self._cn_t, np.ascontiguousarray(s.forms.points, dtype=float),
-                   np.ascontiguousarray(s.forms.weights, dtype=float), s.n_cells_owned, dV)
-        m = (s.rho * dV).reshape(-1, s.nq).sum(axis=1)
-        below = x[self._cn_t].mean(axis=1)[:, 1] < 0.0
-        tot = self.model.sm.comm.allreduce(np.array([m[~below].sum(), m[below].sum()]), op=MPI.SUM)
-        return float(tot[0]), float(tot[1])
-
-    def _quality(self) -> tuple[float, float]:
-        from silo_dolfinx.geometry.quality import worst_cells
-
-        x = self.model.sm.mesh.geometry.x
-        s_, a = worst_cells(x, self._cn, self._orient, self._cn.shape[0])
-        c = self.model.sm.comm
-        return c.allreduce(s_, op=MPI.MIN), c.allreduce(a, op=MPI.MAX)
-
-    def _outlet_flux(self) -> tuple[float, float]:
-        """(∫ −v_z dA over the outlet, outlet area), over all ranks."""
+    def _measure(self) -> dict[str, float]:
+        """What a sample reads off the mesh and the state, over all ranks in two reductions (it
+        runs at the history rate): the mass in the silo and below the outlet plane, the mass
+        the remap has let out, ∫ −v_z dA over the outlet and its area (kg, kg, kg, m³/s, m²);
+        the worst cell's scaled Jacobian, the largest aspect ratio, the height of the top's axis
+        node."""
         from dolfinx import fem, la
 
+        from silo_dolfinx.geometry.cells import qp_volumes, worst_cells
+
         s = self.model.solver
-        self._area.array[:] = 0.0
+        x = self.model.sm.mesh.geometry.x
+        qp_volumes(x, self._cn_t, self._points, self._weights, s.n_cells_owned, self._dV)
+        inside, below = _mass_split(x, self._cn_t, s.rho, self._dV, s.nq)
+        self._area.array[:] = 0.0  # the outlet nodes' tributary areas ∫ N_a dA
         fem.assemble_vector(self._area.array, self._form)
         self._area.scatter_reverse(la.InsertMode.add)
         w = self._area.array.reshape(-1, 2)[: s.n_owned, 0]
-        vz = s.v[: s.n_owned, 1]
-        num = self.model.sm.comm.allreduce(np.array([float(np.dot(w, -vz)), float(w.sum())]), op=MPI.SUM)
-        return float(num[0]), float(num[1])
+        let_out = self.ale.stats.outflow_mass if self.ale is not None else 0.0
+        sums = np.array([inside, below, let_out, float(np.dot(w, -s.v[: s.n_owned, 1])), float(w.sum())])
+        smin, amax = worst_cells(x, self._cn, self._orient, self._cn.shape[0])
+        top = float(x[self._axis_top, 1].max()) if self._axis_top.size else -np.inf
+        comm = self.model.sm.comm
+        worst = np.array([-smin, amax, top])
+        comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+        comm.Allreduce(MPI.IN_PLACE, worst, op=MPI.MAX)
+        return dict(zip(("inside", "below", "let_out", "flux", "area"), sums.tolist())) | {
+            "min_quality": -float(worst[0]), "max_aspect": float(worst[1]), "axis_top": float(worst[2])}
 
     def sample(self, stage: str = "discharge") -> None:
         s = self.model.solver
-        inside, below = self._mass_in_silo()
-        out = self.ale.totals()["discharged_mass"] if self.ale is not None else below
+        now = self._measure()
+        inside, flux, area, amax = now["inside"], now["flux"], now["area"], now["max_aspect"]
+        out = now["let_out"] if self.ale is not None else now["below"]
         # over a trailing window: the remap counts outflow in packets (every `frequency` steps),
         # so the difference between two consecutive samples aliases
         self._hist.append((s.t, out))
@@ -578,15 +571,13 @@ class DischargeMonitor:
             self._hist.popleft()
         t_prev, out_prev = self._hist[0]
         rate = (out - out_prev) / (s.t - t_prev) if s.t > t_prev else 0.0
-        flux, area = self._outlet_flux()
         v_mean = flux / area if area > 0 else 0.0
         err = (self.mass0 - inside - (out if self.ale is not None else 0.0)) / self.mass0
         self.worst_balance = max(self.worst_balance, abs(err))
         nominal = self.model.scene.material.density * flux  # ρ0 ∫ −v_z dA
         self.outlet_csv.write([s.t, out, inside, rate, v_mean, err, nominal, s.dt_prev])
-        smin, amax = self._quality()
-        self.min_quality, self.axis_top_height = smin, self._axis_top_z()
-        self.mesh_csv.write([s.t, self._z_top0 - self.axis_top_height, smin, amax])
+        self.min_quality, self.axis_top_height = now["min_quality"], now["axis_top"]
+        self.mesh_csv.write([s.t, self._z_top0 - self.axis_top_height, self.min_quality, amax])
         self.flow.append((s.t, rate, v_mean, amax, out, nominal))
 
     def summary(self) -> dict:
@@ -619,3 +610,17 @@ class DischargeMonitor:
         self.results.write_table(schema.TRACERS, sorted(rows, key=lambda r: r[0]))
         return comm.bcast({"seeded": len(rows), "inside": int(g["id"].size), "discharged": int(g["out_id"].size)},
                           root=0)
+
+
+@numba.njit(cache=True)
+def _mass_split(x, cn, rho, dV, nq):
+    """[mass of the cells whose centroid is above z = 0 (in the silo), mass of those below
+    (discharged, on a mesh that keeps them)] of the owned cells ``cn`` (n, 4)."""
+    out = np.zeros(2)
+    for c in range(cn.shape[0]):
+        m = 0.0
+        for q in range(nq):
+            m += rho[c * nq + q] * dV[c * nq + q]
+        zc = 0.25 * (x[cn[c, 0], 1] + x[cn[c, 1], 1] + x[cn[c, 2], 1] + x[cn[c, 3], 1])
+        out[1 if zc < 0.0 else 0] += m
+    return out

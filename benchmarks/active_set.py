@@ -4,19 +4,20 @@
     mpirun -n 2 python benchmarks/active_set.py --eps 0.02 --discharge 5
 
 The remap sweeps every edge and limits every cell, however little the smoothing moved them. For
-each ε this script runs the ch. 4 scene (K0 start, 0.3 s of storage, ``--discharge`` s) with the
-smoothing wrapped (``Smoother.smooth`` patched here, nowhere else): an interior node whose
+each ε this script runs the ch. 4 scene (K0 start, 0.3 s of storage, ``--discharge`` s) with
+the smoothing wrapped (``Smoother.smooth`` patched here, nowhere else): an interior node whose
 smoothed target is within ε h of where the material took it stays there (h: the scene's element
 size); the next smoothing starts from the smoothed mesh (``--anchor smoothed``: a node's lag is
 measured against where the smoothing would have it, and stays under ε h) or from where the
-nodes were left (``--anchor material``: lags accumulate). At every remap it counts the edges whose swept volume is more than round-off (10⁻¹² of
-the median cell volume: an edge whose two nodes both stay sweeps a degenerate quadrilateral,
-whose moments are round-off, not zero), the owned cells such edges touch, and those with their
-edge neighbours (the gradients and bounds read them) - what a remap over active lists would
-update; the others' totals cannot change. Printed per ε: the share of interior nodes left
-where they were, of edges swept, of cells touched (over the run and over its last third), and
-the discharge's flow, outlet velocity, energy error and largest aspect ratio at the end, which
-say what the lagging mesh did to the physics. Results: docs/performance.md.
+nodes were left (``--anchor material``: lags accumulate). At every remap it counts the edges
+whose swept volume is more than round-off (10⁻¹² of the median cell volume: an edge whose two
+nodes both stay sweeps a degenerate quadrilateral, whose moments are round-off, not zero), the
+owned cells such edges touch, and those with their edge neighbours (the gradients and bounds
+read them) - what a remap over active lists would update; the others' totals cannot change.
+Printed per ε: the share of interior nodes left where they were, of edges swept, of cells
+touched (over the run and over its last third), and the discharge's flow, outlet velocity,
+energy error and largest aspect ratio at the end, which say what the lagging mesh did to the
+physics. Results: docs/performance.md.
 """
 
 from __future__ import annotations

@@ -91,8 +91,6 @@ class ALE:
         cells = np.concatenate([f2c.links(f) for f in outlet]) if len(outlet) else np.zeros(0, np.int32)
         self._outlet_cells = np.unique(cells[cells < no]).astype(np.int64)  # empty on ranks away from it
         self._outlet_points = (self._outlet_cells[:, None] * s.nq + np.arange(s.nq)).ravel()
-        self._points = np.ascontiguousarray(s.forms.points, dtype=np.float64)
-        self._weights = np.ascontiguousarray(s.forms.weights, dtype=np.float64)
         # one-point quadrature's cell volume 2π r_c |det J_c| is not the exact volume of
         # revolution the remap conserves mass in: densities are converted to and from it
         self._exact = (np.zeros(self.remapper.n_all), np.zeros((self.remapper.n_all, 2))) if s.nq == 1 else None
@@ -150,7 +148,7 @@ class ALE:
 
         # cell means of the quadrature data at the Lagrangian positions
         no = s.n_cells_owned
-        qp_volumes(xL, self.cn_tensor, self._points, self._weights, no, self._dV)
+        qp_volumes(xL, self.cn_tensor, s.forms.points, s.forms.weights, no, self._dV)
         means, lo, hi, rho = self._means, self._lo, self._hi, self._rho
         cell_volume_density(s.rho, nq, self._dV, self._vol, rho)
         for j0, a in self._field_arrays():
@@ -175,7 +173,7 @@ class ALE:
 
         # write back: mesh, quadrature data, velocity; rebuild what depends on them
         x[:, :2] = xS
-        qp_volumes(xS, self.cn_tensor, self._points, self._weights, no, self._dV)
+        qp_volumes(xS, self.cn_tensor, s.forms.points, s.forms.weights, no, self._dV)
         if self._exact is not None:  # and back: the density whose one-point cell mass is the remapped mass
             rho *= self.remapper.volumes(xS, self._exact)[:no] / self._dV
         for j0, a in self._field_arrays():

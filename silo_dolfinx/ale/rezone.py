@@ -477,8 +477,7 @@ class Rezoner:
         nq, no = s.nq, s.n_cells_owned
         rho, means = tr.cells()
         dV = np.zeros(no * nq)
-        qp_volumes(np.ascontiguousarray(s.x[:, :2]), s.cell_tensor[:no], np.ascontiguousarray(s.forms.points, float),
-                   np.ascontiguousarray(s.forms.weights, float), no, dV)
+        qp_volumes(np.ascontiguousarray(s.x[:, :2]), s.cell_tensor[:no], s.forms.points, s.forms.weights, no, dV)
         # the density whose quadrature volumes (one point: not the exact volume) hold the mass
         s.rho.reshape(-1, nq)[:] = (rho * tr.new_volumes / dV.reshape(-1, nq).sum(axis=1))[:, None]
         j0 = 0

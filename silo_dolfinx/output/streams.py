@@ -524,9 +524,7 @@ class DischargeMonitor:
         self._cn = cycle_nodes(mesh, s.n_cells_owned)
         self._orient = orientation(mesh.geometry.x, self._cn)
         self._axis_top = np.intersect1d(model.sm.nodes_on("top"), model.sm.nodes_on("axis"))
-        self._dV = np.zeros(s.n_cells_owned * s.nq)  # work arrays of _measure (at the history rate)
-        self._points = np.ascontiguousarray(s.forms.points, dtype=float)
-        self._weights = np.ascontiguousarray(s.forms.weights, dtype=float)
+        self._dV = np.zeros(s.n_cells_owned * s.nq)  # work array of _measure (at the history rate)
         if carried is not None:  # the new mesh's worst cell (the rezone and the stop test read it)
             self.min_quality = self._measure()["min_quality"]
 
@@ -542,7 +540,7 @@ class DischargeMonitor:
 
         s = self.model.solver
         x = self.model.sm.mesh.geometry.x
-        qp_volumes(x, self._cn_t, self._points, self._weights, s.n_cells_owned, self._dV)
+        qp_volumes(x, self._cn_t, s.forms.points, s.forms.weights, s.n_cells_owned, self._dV)
         inside, below = _mass_split(x, self._cn_t, s.rho, self._dV, s.nq)
         self._area.array[:] = 0.0  # the outlet nodes' tributary areas ∫ N_a dA
         fem.assemble_vector(self._area.array, self._form)

@@ -21,6 +21,8 @@
 #     mpirun -n 2 python demos/flat_bottom_ch6.py --quick          # h 0.02 m, 10 s of discharge (~3 min)
 #     mpirun -n 2 python demos/flat_bottom_ch6.py                  # the thesis' 14,000 cells, 100 s
 #     ... --element-size 0.014 --discharge 100 --reuse             # other meshes, lengths; measure only
+#     ... --quick --outlet-factor 0.25                              # four cells across the outlet's radius
+#     ... --quick --outlet-mesh 0.5 0.25 0.125 0.0625               # the outlet's mesh study (~45 min)
 #     ... --model drucker_prager --integration full                 # flat_bottom_ch6.toml as shipped (arches)
 #     ... --model drucker_prager --cone extension                   # the cone matched in extension (ch6.md)
 #     mpirun -n 2 python demos/flat_bottom_ch6.py --outlet-study   # which solid and element discharge (~3 min)
@@ -53,16 +55,20 @@ ap.add_argument("--cone", choices=("compression", "extension", "plane_strain"),
 ap.add_argument("--model", choices=("drucker_prager", "mohr_coulomb"),
                 help="material.model (default: the scene's, mohr_coulomb; drucker_prager with --integration "
                      "full is flat_bottom_ch6.toml as shipped, which arches over the outlet)")
+ap.add_argument("--outlet-factor", type=float,
+                help="geometry.outlet_size_factor: the element size at the outlet edge over h (default: the "
+                     "scene's, 0.5 with --quick - two cells across the outlet's radius at h 0.02 m)")
 ap.add_argument("--integration", choices=("full", "reduced"), help="numerics.integration (default: the scene's)")
 ap.add_argument("--outlet-study", action="store_true",
                 help="only the outlet study: which solid and which element let the 0.04-m outlet discharge "
                      "(six short runs, h 0.02 m, ~5 min)")
+ap.add_argument("--outlet-mesh", type=float, nargs="+", metavar="FACTOR",
+                help="only the outlet's mesh study: the run (with --quick: h 0.02 m, 10 s of discharge) "
+                     "with the outlet's elements FACTOR × h, for each FACTOR (e.g. 0.5 0.25 0.125 0.0625)")
 ap.add_argument("--reuse", action="store_true", help="run nothing: measure the results already there")
 args, _ = ap.parse_known_args()
 h = args.element_size or (0.02 if args.quick else None)
 duration = args.discharge or (10.0 if args.quick else 100.0)
-OUT = Path("results") / ("flat_bottom_ch6" + ("_quick" if args.quick else "") + (f"_h{h:g}" if args.element_size else "")
-                         + "".join(f"_{v}" for v in (args.cone, args.model, args.integration) if v))
 THESIS_K = 0.38
 STATIONS = np.round(np.arange(0.1, 3.95, 0.1), 2)
 overrides = [f"discharge.duration={duration}", "output.field_interval=1.0",
@@ -75,11 +81,28 @@ if args.model:
     overrides.append(f'material.model="{args.model}"')
 if args.integration:
     overrides.append(f'numerics.integration="{args.integration}"')
-if args.quick:
-    # the outlet (radius 0.02 m) keeps the thesis' two cells across its radius: with one, an
-    # arch of one cell spans it and the flow stops within 2 s (h 0.02, measured: 0.02 kg in 20 s)
-    overrides.append("geometry.outlet_size_factor=0.5")
-scene = load_scene(HERE / "scenes" / "flat_bottom_ch6_discharge.toml", overrides)
+# the outlet (radius 0.02 m) keeps the thesis' two cells across its radius with --quick: with
+# one, an arch of one cell spans it and the flow stops within 2 s (h 0.02, measured: 0.02 kg in 20 s)
+QUICK_OUTLET = 0.5 if args.quick else None
+OUTLET = args.outlet_factor or QUICK_OUTLET
+
+
+def folder(outlet_factor: float | None) -> Path:
+    """Where the run with these arguments and this outlet factor writes."""
+    return Path("results") / ("flat_bottom_ch6" + ("_quick" if args.quick else "")
+                              + (f"_h{h:g}" if args.element_size else "")
+                              + (f"_outlet{outlet_factor:g}" if outlet_factor != QUICK_OUTLET else "")
+                              + "".join(f"_{v}" for v in (args.cone, args.model, args.integration) if v))
+
+
+def scene_with(outlet_factor: float | None):
+    """The scene of these arguments with the outlet's element size ``outlet_factor`` × h."""
+    more = [f"geometry.outlet_size_factor={outlet_factor}"] if outlet_factor else []
+    return load_scene(HERE / "scenes" / "flat_bottom_ch6_discharge.toml", overrides + more)
+
+
+OUT = folder(OUTLET)
+scene = scene_with(OUTLET)
 
 
 def say(*a):
@@ -88,6 +111,50 @@ def say(*a):
 
 
 # -
+
+# The two measurements the thesis' ch. 6.4 rests on, used by the main run and by the outlet's
+# mesh study below: the discharge overpressure (the mean wall pressure over the discharge minus
+# the end of filling, at every station) and the flow-channel boundary - v_z = f × the centreline
+# v_z at the same height, from v_z averaged over the last AVERAGE seconds (one snapshot carries
+# the stress waves) - with the height where it meets the wall to within one element.
+
+# +
+AVERAGE = 10.0
+
+
+def overpressure(folder: Path, radius: float, t_open: float, t_end: float):
+    """(z of the stations, p_n at the end of filling, the discharge mean, their difference)."""
+    hist = read_csv(folder / "wall_history.csv")
+    z_st, p_dis = analysis.station_means(hist, t_open, t_end)
+    fill = read_csv(folder / "wall_profile_fill.csv")
+    fv = fill["r"] > radius * (1 - 1e-9)
+    o = np.argsort(fill["z"][fv])
+    p_fill = np.interp(z_st, fill["z"][fv][o], fill["p_n"][fv][o])
+    return z_st, p_fill, p_dis, p_dis - p_fill
+
+
+def flow_channel(rep: Report, wall, h_wall: float):
+    """(snapshots, node positions, mean v_z, FCB rows by criterion, effective transition by criterion)."""
+    snaps = rep.flow_snapshots()
+    xy, v_mean = analysis.time_averaged_velocity(f for t, f in snaps if t > snaps[-1][0] - AVERAGE)
+    vz = v_mean[:, 1]
+    fcb = {f: analysis.flow_channel_from_nodes(xy, vz, wall.radius_at, f) for f in (1e-2, 1e-3, 1e-4)}
+    transition = {f: analysis.effective_transition(*fcb[f], tolerance=h_wall) for f in fcb}
+    return snaps, xy, vz, fcb, transition
+
+
+def save(fig, axes, path: Path) -> None:
+    """Grid and legend on every panel, then the figure to ``path``."""
+    import matplotlib.pyplot as plt
+
+    for a in axes:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+# -
+
 
 # ## What lets a small outlet discharge: the yield surface and the element
 #
@@ -138,8 +205,88 @@ def outlet_study(folder: Path) -> None:
         print(table)
 
 
+# ## The outlet's mesh decides the rate
+#
+# `--outlet-mesh 0.5 0.25 0.125 0.0625` runs the same silo with the outlet's elements halved
+# each time - 2, 4, 8, 16 cells across its 0.02-m radius at h 0.02 m (`--quick`), the grading
+# spreading the refinement into the silo's bottom - and measures what the mesh there moves: the
+# mass leaving over the second half of the discharge and its outlet velocity, the effective
+# transition and the overpressure (over the whole discharge), with the wall-clock each costs.
+# Its figure: the mass flow in 0.5-s means after opening, and the flow-channel boundaries.
+
+# +
+def outlet_mesh_study(factors) -> None:
+    rows = ["| outlet cells (f × h) | across its radius | cells | mass leaving, 2nd half (kg/s) | vs Beverloo | "
+            "outlet velocity (m/s) | effective transition (0.001) | overpressure max | Δt in discharge | "
+            "wall-clock | steps/s |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    curves = []
+    for f in factors:
+        out, sc = folder(f), scene_with(f)
+        if not args.reuse:
+            run(sc, out, comm)
+        comm.barrier()
+        if comm.rank != 0:
+            continue
+        summ = read_summary(out)
+        if summ.get("status") != "completed":
+            rows.append(f"| {f:g} | – | {summ.get('cells', 0):,} | did not complete: {summ.get('status')} |")
+            continue
+        g = sc.geometry
+        t_open, t_end = next((st["t_start"], st["t_end"]) for st in summ["stages"] if st["name"] == "discharge")
+        o = read_csv(out / "outlet.csv")
+        late = o["t"] >= t_open + 0.5 * (t_end - t_open)
+        W, v = float(np.mean(o["mass_flow_rate"][late])), float(np.mean(o["mean_outlet_velocity"][late]))
+        W_b = theory.beverloo(sc.material.density, 2 * g.outlet_radius, gravity=sc.loads.gravity)
+        z_st, _, _, over = overpressure(out, g.radius, t_open, t_end)
+        k = int(np.argmax(over))
+        _, _, _, fcb, transition = flow_channel(Report(out), sc.outline.wall, g.element_size)
+        dt = o["dt"][(o["t"] > t_open) & (o["t"] < t_end - 1e-9)]
+        size = f * g.element_size
+        rows.append(f"| {1e3 * size:.2f} mm ({f:g}) | {g.outlet_radius / size:.0f} | {summ['cells']:,} | {W:.3f} | "
+                    f"{100 * (W / W_b - 1):+.0f} % | {v:.3f} | {transition[1e-3]:.2f} m | "
+                    f"{over[k] / 1e3:+.2f} kPa at {z_st[k]:.1f} m | {dt.min():.2e}–{dt.max():.2e} s | "
+                    f"{summ['wall_clock_s'] / 60:.1f} min | {summ['steps_per_second']:.0f} |")
+        curves.append((f, g.outlet_radius / size, o, t_open, fcb[1e-3], sc.outline.wall, W_b))
+    if comm.rank != 0:
+        return
+    name = Path("results") / ("flat_bottom_ch6" + ("_quick" if args.quick else "") + "_outlet_mesh")
+    name.mkdir(parents=True, exist_ok=True)
+    table = "\n".join(rows + ["", f"Beverloo {curves[0][-1]:.3f} kg/s (C 0.58, d 0); the thesis' pace "
+                                    "(10 % of the fill in 100 s) ≈ 2.2 kg/s."] if curves else rows)
+    (name / "table.md").write_text(table + "\n")
+    print(table)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [2, 1]})
+    for f, n, o, t_open, (z_rows, r_fcb, rw), wall, W_b in curves:
+        t, m = o["t"] - t_open, o["discharged_mass"]
+        tt = np.arange(0.0, t[-1] - 0.5 + 1e-9, 0.5)
+        ax[0].plot(tt + 0.25, np.diff(np.interp(np.append(tt, tt[-1] + 0.5), t, m)) / 0.5, ".-",
+                   label=f"{n:.0f} cells across the outlet radius")
+        ax[1].plot(np.where(np.isnan(r_fcb), rw, r_fcb), z_rows, ".-", ms=3, label=f"{n:.0f} across")
+    ax[0].axhline(curves[0][-1], color="k", ls="--", label="Beverloo")
+    ax[0].axhline(2.2, color="r", ls=":", label="the thesis' pace")
+    ax[0].set_xlabel("time after opening (s)")
+    ax[0].set_ylabel("mass leaving, 0.5-s means (kg/s)")
+    wall = curves[0][5]
+    sw = wall.point_at(np.linspace(0, wall.length, 200))
+    ax[1].plot(sw[:, 0], sw[:, 1], "k-", lw=1.5)
+    ax[1].set_ylim(0.0, 2.5)
+    ax[1].set_xlabel("r (m), stretched")
+    ax[1].set_title(f"FCB (0.001), v_z of the last {AVERAGE:g} s")
+    save(fig, ax, name / "outlet_mesh.png")
+    print(f"figure: {name / 'outlet_mesh.png'}")
+# -
+
+
 if args.outlet_study:
     outlet_study(Path("results") / "flat_bottom_ch6_outlet")
+    raise SystemExit(0)
+if args.outlet_mesh:
+    outlet_mesh_study(args.outlet_mesh)
     raise SystemExit(0)
 if not args.reuse:
     run(scene, OUT, comm)
@@ -171,25 +318,14 @@ if comm.rank == 0:
     k_own = rep.measured_k("store", mu, g.radius)
 
     # the discharge mean over the whole discharge (the thesis: its first 100 s) against filling
-    hist = read_csv(OUT / "wall_history.csv")
-    z_st, p_dis = analysis.station_means(hist, t_open, t_end)
-    fill = read_csv(OUT / "wall_profile_fill.csv")
-    fv = fill["r"] > g.radius * (1 - 1e-9)
-    o = np.argsort(fill["z"][fv])
-    p_fill = np.interp(z_st, fill["z"][fv][o], fill["p_n"][fv][o])
-    over = p_dis - p_fill
+    z_st, p_fill, p_dis, over = overpressure(OUT, g.radius, t_open, t_end)
     k_max = int(np.argmax(over))
 
     # flow channel: criteria 0.01 / 0.001 / 0.0001 from v_z averaged over the last 10 s (one
     # snapshot carries the stress waves), meeting the wall to within one element; v_z profiles
-    snaps = rep.flow_snapshots()
-    AVERAGE = 10.0
-    xy, v_mean = analysis.time_averaged_velocity(f for t, f in snaps if t > snaps[-1][0] - AVERAGE)
-    vz = v_mean[:, 1]
     wall = scene.outline.wall
     h_wall = h or g.element_size
-    fcb = {f: analysis.flow_channel_from_nodes(xy, vz, wall.radius_at, f) for f in (1e-2, 1e-3, 1e-4)}
-    transition = {f: analysis.effective_transition(*fcb[f], tolerance=h_wall) for f in fcb}
+    snaps, xy, vz, fcb, transition = flow_channel(rep, wall, h_wall)
     fc = read_csv(OUT / "flow_channel.csv")
     by_vdis = {}
     for v in np.unique(fc["v_dis"]):
@@ -280,12 +416,7 @@ if comm.rank == 0:
     ax[3].set_xlabel("r (m)")
     ax[3].set_ylabel("downward v_z (m/s)")
     ax[3].set_title(f"Figs. 6-8/6-10: v_z across the silo\n(mean of the last {AVERAGE:g} s)")
-    for a in ax:
-        a.grid(alpha=0.3)
-        a.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(OUT / "ch6.png", dpi=110)
-    plt.close(fig)
+    save(fig, ax, OUT / "ch6.png")
     fig, a = plt.subplots(figsize=(4, 8))
     tc = a.tricontourf(xy[:, 0], xy[:, 1], np.log10(np.maximum(-vz, 1e-7)), levels=np.arange(-7, 0.5, 0.5))
     fig.colorbar(tc, ax=a, label="log10 downward v_z (m/s)")

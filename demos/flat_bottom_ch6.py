@@ -27,7 +27,7 @@
 #     ... --model drucker_prager --cone extension                   # the cone matched in extension (ch6.md)
 #     mpirun -n 2 python demos/flat_bottom_ch6.py --outlet-study   # which solid and element discharge (~3 min)
 #
-# Results: `results/flat_bottom_ch6[_quick]/` (with `silo report`), the table in `table.md`.
+# Results: `results/flat_bottom_ch6[_quick][_hH][_outletF][_Ss]/` (with `silo report`), the table in `table.md`.
 
 # +
 import argparse
@@ -92,6 +92,7 @@ def folder(outlet_factor: float | None) -> Path:
     return Path("results") / ("flat_bottom_ch6" + ("_quick" if args.quick else "")
                               + (f"_h{h:g}" if args.element_size else "")
                               + (f"_outlet{outlet_factor:g}" if outlet_factor != QUICK_OUTLET else "")
+                              + (f"_{args.discharge:g}s" if args.discharge else "")
                               + "".join(f"_{v}" for v in (args.cone, args.model, args.integration) if v))
 
 

@@ -210,11 +210,13 @@ def outlet_study(folder: Path) -> None:
         print(table)
 
 
-# ## The outlet's mesh decides the rate
+# ## The outlet's mesh and the rate
 #
 # `--outlet-mesh 0.5 0.25 0.125 0.0625` runs the same silo with the outlet's elements halved
 # each time - 2, 4, 8, 16 cells across its 0.02-m radius at h 0.02 m (`--quick`), the grading
-# spreading the refinement into the silo's bottom - and measures what the mesh there moves: the
+# spreading the refinement into the silo's bottom; `--discharge 10 --outlet-mesh 1 0.5` the
+# thesis' mesh with 2 and 4 (docs/validation/ch6.md: there the rate moves 1.4 %, on the quick
+# mesh, graded 4-16x, it doubles) - and measures what the mesh there moves: the
 # mass leaving over the second half of the discharge and its outlet velocity, the effective
 # transition and the overpressure (over the whole discharge), with the wall-clock each costs.
 # Its figure: the mass flow in 0.5-s means after opening, and the flow-channel boundaries.

@@ -270,10 +270,8 @@ def outlet_mesh_study(factors) -> None:
 
     fig, ax = plt.subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [2, 1]})
     for f, n, o, t_open, (z_rows, r_fcb, rw), wall, W_b in curves:
-        t, m = o["t"] - t_open, o["discharged_mass"]
-        tt = np.arange(0.0, t[-1] - 0.5 + 1e-9, 0.5)
-        ax[0].plot(tt + 0.25, np.diff(np.interp(np.append(tt, tt[-1] + 0.5), t, m)) / 0.5, ".-",
-                   label=f"{n:.0f} cells across the outlet radius")
+        starts, rate = analysis.windowed_mass_flow(o["t"] - t_open, o["discharged_mass"], 0.5, t_start=0.0)
+        ax[0].plot(starts + 0.25, rate, ".-", label=f"{n:.0f} cells across the outlet radius")
         ax[1].plot(np.where(np.isnan(r_fcb), rw, r_fcb), z_rows, ".-", ms=3, label=f"{n:.0f} across")
     ax[0].axhline(curves[0][-1], color="k", ls="--", label="Beverloo")
     ax[0].axhline(THESIS_TEXT_RATE, color="r", ls=":", label="the thesis' text: 10 % in 100 s")

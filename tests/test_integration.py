@@ -157,8 +157,8 @@ def test_a_discharge_with_one_point_quadrature_stays_free_of_hourglass_patterns(
     of the internal (elastic + plastic) energy - the issue's bar for 'no hourglass patterns',
     Abaqus' ALLAE/ALLIE rule of thumb; measured 0.28 % - and the mass discharged is within 3 %
     of the full quadrature's (measured −0.4 %; the two discretisations differ by their mesh
-    error, which benchmarks/accuracy_cost.py puts at 1.1 % of the flow at this element size; at
-    h 0.1 m, two cells across the outlet, they differ by 8.7 %)."""
+    error, which benchmarks/accuracy_cost.py put at 1.1 % of the flow at this element size on the
+    ch. 3 mesh with the literal β; at h 0.1 m, two cells across the outlet, they differ by 8.7 %)."""
     out = {}
     for integration in ("full", "reduced"):
         folder = shared_tmp / integration

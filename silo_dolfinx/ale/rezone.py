@@ -420,7 +420,7 @@ class Rezoner:
         comm = s.comm
         old = self._old_state()
         before = s.mechanical_energy_local()
-        record = {"t": s.t, "cells_before": model.sm.num_cells_global(), "dt_before": s.dt_crit,
+        record = {"t": s.t, "step": s.steps, "cells_before": model.sm.num_cells_global(), "dt_before": s.dt_crit,
                   "kinetic_before": comm.allreduce(s.kinetic_energy_local()),
                   "mass_before": float(np.sum(old.rho * old.volumes))}
 

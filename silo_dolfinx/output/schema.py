@@ -188,7 +188,7 @@ def markdown() -> str:
            "has its steps, wall-clock, last Δt, lowest cell density and `dt_limit`, the cell with the smallest stable "
            "Δt at its end: centroid `r`, `z` (m), `length` (m, the Δt length), `density` (kg/m³), `dt` (s, before "
            "numerics.time_step_scale); a discharge that was meshed again (`ale.rezone_dt_fall`, "
-           "`ale.rezone_min_quality`) lists its `rezones`: time `t`, `cells_before`/`cells_after`, stable "
+           "`ale.rezone_min_quality`) lists its `rezones`: time `t`, solver `step`, `cells_before`/`cells_after`, stable "
            "`dt_before`/`dt_after` (s, before the scale), `mass_before`/`mass_after` (kg), `uncovered_mass` (kg of "
            "old cells no new cell overlapped: lost), `gap_volume` (m³ of new cells no old cell covered: the mass "
            "around spreads into it), `kinetic_before`/`kinetic_after` and `energy_removed` (J, booked as remap "

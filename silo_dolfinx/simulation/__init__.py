@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 from mpi4py import MPI
 
 from silo_dolfinx import checkpoint
@@ -114,8 +115,8 @@ def _mesh_record(scene, sm, results: Results) -> None:
 def _finish(model: SiloModel, results: Results, stages: list[dict]) -> None:
     s = model.solver
     e = s.global_energy()
-    results.summary["warnings"] += _dilation_warnings(model.scene, stages) + [st["ended_because"] for st in stages
-                                                                             if "ended_because" in st]
+    results.summary["warnings"] += (_dilation_warnings(model.scene, stages) + _rezone_warnings(model.scene, stages)
+                                    + [st["ended_because"] for st in stages if "ended_because" in st])
     results.update(stages=stages, steps=s.steps, rejected_steps=s.rejected, simulated_time=s.t, t_reached=s.t,
                    energy={k: getattr(e, k) for k in ("kinetic", "elastic", "plastic", "viscous", "damping",
                                                       "gravity", "external", "contact")},
@@ -134,6 +135,7 @@ def _record_reach(results: Results, model: SiloModel | None) -> float:
 
 
 DILATION_WARNING = 0.5  # a cell below this fraction of the solid's density is no granular solid
+REZONE_WARNING = (10, 10)  # warn after this many re-meshes of a stage, fewer than this many remaps apart (median)
 
 
 def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
@@ -158,6 +160,31 @@ def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
                            "separation at the yield surface's apex, where the solid is stretched at near-zero "
                            "pressure (the free-fall zone above an outlet, a free-surface crater); a yield surface "
                            "without a cap does not recompact it. Its stable Δt falls with its density.")
+    return out
+
+
+def _rezone_warnings(scene, stages: list[dict]) -> list[str]:
+    """A warning for a discharge that was meshed again over and over: at least REZONE_WARNING[0]
+    times, fewer than REZONE_WARNING[1] remaps apart (median). The mesh then loses what the
+    re-mesh restored as fast as it is restored - usually because it follows the material
+    (ale.predictor = "current": the ch. 4 hopper at h 0.04 m re-meshed 179 times in 2 s, every
+    ~24 steps, 14× slower than with the default predictor; docs/performance.md)."""
+    out = []
+    count, apart = REZONE_WARNING
+    for st in stages:
+        steps = [r["step"] for r in st.get("rezones", [])]
+        if len(steps) < count:
+            continue
+        every = float(np.median(np.diff(steps)))
+        if every < apart * scene.ale.frequency:
+            seconds = sum(r["seconds"] for r in st["rezones"])
+            out.append(f"[ale] the {st['name']} stage was meshed again {len(steps)} times, every {every:.0f} steps "
+                       f"(median; {seconds:.1f} s of wall-clock in all): the mesh falls back below "
+                       "ale.rezone_min_quality (or its Δt below rezone_dt_fall) about as fast as it is re-meshed. "
+                       f"With ale.predictor = \"{scene.ale.predictor}\"" + (
+                           " the mesh follows the material: set ale.predictor = \"previous\" (the default)."
+                           if scene.ale.predictor == "current" else
+                           ": lower ale.rezone_min_quality, or remap more often (ale.frequency smaller)."))
     return out
 
 

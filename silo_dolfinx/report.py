@@ -101,7 +101,7 @@ class Report:
             R = {"flat_bottom": "radius", "bin_hopper": "radius", "column": "base_radius"}[g.shape]
             curves = self._janssen(z, g[R], mu, gamma, stage)
             if g.shape == "bin_hopper":  # Janssen holds on the vertical wall, above the transition
-                below = z < sc.outline.transition_points[0][1]
+                below = z < self._vertical_wall_base(z)
                 curves = [(label, np.where(below, np.nan, p)) for label, p in curves]
             out += curves
         if g.shape == "hopper" and mu > 0:
@@ -157,11 +157,20 @@ class Report:
         return [(f"Janssen K = {K:.3g} ({why})", theory.janssen(depth, R, mu, K, gamma, sc.loads.top_surcharge)[0])
                 for K, why in ks]
 
+    def _vertical_wall_base(self, z: np.ndarray) -> float:
+        """Where the vertical wall starts: a bin-hopper's transition (a fillet's upper tangent
+        point), else the bottom of the wall profile ``z``."""
+        sc = self.scene
+        if sc.geometry.shape == "bin_hopper":
+            return float(np.max(sc.outline.transition_points[:, 1]))
+        return float(np.min(z))
+
     def measured_k(self, stage: str, mu: float, R: float) -> float | None:
         """The solid's own lateral pressure ratio at the end of ``stage``: the median over the
-        depths from one Janssen depth (with that K) down to 0.1 m above the bottom of wall p_n
-        over the section-mean vertical stress (analysis.lateral_pressure_ratio), from the last
-        field snapshot of the stage; None without one."""
+        depths from one Janssen depth (with that K; at most half the vertical wall) down to
+        0.1 m above the floor, or one radius above a bin-hopper's transition, of wall p_n over
+        the section-mean vertical stress (analysis.lateral_pressure_ratio), from the last field
+        snapshot of the stage; None without one."""
         t_end = self._stage_times().get(stage, (0.0, None))[1]
         wall = read_csv(self.folder / f"wall_profile_{stage}.csv")
         snap = self._snapshot(t_end) if t_end is not None else None
@@ -171,9 +180,14 @@ class Report:
 
         z = wall["z"]
         z_top = self.scene.geometry.fill_height
+        # the vertical wall from 0.1 m above the floor, or one radius above a bin-hopper's
+        # transition (its switch stress spreads about a radius up the bin, ch. 7)
+        base = self._vertical_wall_base(z)
+        z_lo = base + (R if self.scene.geometry.shape == "bin_hopper" else 0.1)
         k = 0.5
         for _ in range(3):  # the window starts one Janssen depth down: iterate K and z0 = R/(2 K μ)
-            sel = (z > z.min() + 0.1) & (z < z_top - R / (2 * k * mu))
+            # (a bin shorter than that: its upper half is left out instead)
+            sel = (z > z_lo) & (z < z_top - min(R / (2 * k * mu), 0.5 * (z_top - z_lo)))
             if not np.any(sel):
                 return None
             k = float(np.nanmedian(analysis.lateral_pressure_ratio(snap, wall, z[sel])))
@@ -232,7 +246,7 @@ class Report:
 
         R = sc.geometry.radius
         vertical = d["r"] > R * (1 - 1e-9)
-        base = sc.outline.transition_points[0][1] if sc.geometry.shape == "bin_hopper" else float(np.min(d["z"]))
+        base = self._vertical_wall_base(d["z"])
         try:
             f = analysis.janssen_fit(d["z"][vertical], d["p_n"][vertical], fill_height=sc.geometry.fill_height,
                                      radius=R, unit_weight=sc.material.density * sc.loads.gravity, z_min=base + R)

@@ -321,3 +321,37 @@ def test_report_names_stations_by_their_labels(synthetic):
 
     r = Report(synthetic)
     assert (r._station(0, 0.33), r._station(2, 1.32)) == ("a (z = 0.33 m)", "z = 1.32 m")
+
+
+def test_a_bin_hoppers_own_k_is_measured_on_its_vertical_wall(tmp_path):
+    """The solid's own K, drawn with Janssen on a bin-hopper's wall, is measured on the vertical
+    wall from one radius above the transition. A synthetic fill: a uniform σ_zz of −10 kPa, and
+    wall p_n of 4.3 kPa on the bin above transition + 0.2 m (K 0.43) but 15 kPa on the hopper
+    and just above the corner (a ratio 1.5 that is no Janssen K: the inclined wall and the
+    switch). The bin (0.9 m) is shorter than one Janssen depth (R/(2Kμ) 0.61 m) plus a radius:
+    the window is then the bin's lower half (1.037-1.312 m). The window that started 0.1 m above
+    the outlet returned the hopper's ratio (0.87 on a user's wheat bin, where ν/(1−ν) is 0.43).
+    The ratio is exact in the window, so 1e-9."""
+    from silo_dolfinx.report import Report
+
+    scene = load_scene(SCENES / "bin_hopper_ch7_abrupt.toml", ["geometry.bin_height=0.9",
+                                                                 "geometry.element_size=0.05",
+                                                                 "output.stations=[0.3, 1.0]"])
+    d = tmp_path / "bin"
+    (d / "fields").mkdir(parents=True)
+    (d / "scene.toml").write_text(scene.to_toml())
+    (d / "summary.json").write_text(json.dumps({"status": "completed", "stages": [
+        {"name": "fill", "t_start": 0.0, "t_end": 10.0}]}))
+    R, R0, zt, h = 0.35, 0.1, 0.687, 1.587
+    assert abs(scene.outline.transition_points[0][1] - zt) < 1e-3
+    z = np.linspace(0.0, h, 160)
+    r = np.minimum(R0 + z * math.tan(math.radians(20.0)), R)
+    pn = np.where(z > zt + 0.2, 4300.0, 15000.0)
+    write_csv(d / "wall_profile_fill.csv", ["s", "r", "z", "p_n", "p_s", "slip_velocity", "in_contact"],
+              [[zi, ri, zi, p, 0.67 * p, 0.0, 1.0] for zi, ri, p in zip(z, r, pn)])
+    zb = np.linspace(0.0, h, 41)  # one column of cells per band, to the wall
+    corners = [[[0.0, a], [min(R0 + a * 0.364, R), a], [min(R0 + b * 0.364, R), b], [0.0, b]]
+               for a, b in zip(zb[:-1], zb[1:])]
+    np.savez(d / "fields" / "snapshot_0000.npz", t=10.0, corners=np.array(corners),
+             cell_stress_zz=np.full(len(corners), -10000.0))
+    assert abs(Report(d).measured_k("fill", 0.67, R) - 0.43) < 1e-9

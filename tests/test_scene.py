@@ -326,3 +326,29 @@ def test_scenes_that_cannot_run_are_refused_before_meshing(overrides, key, fragm
     comment (ch. 4: ρ 1000, E 5.5e5, ν 0.3, c_d 27.21 m/s, h 0.0155, 72 s of fill, store and
     discharge)."""
     assert_names(refused(CH4, overrides), key, *fragments)
+
+
+
+def test_a_bin_hopper_gets_a_station_at_its_transition():
+    """The default stations of a bin-hopper include its transition, named so (evenly spaced
+    ones step over the switch stress): the abrupt corner's height (0.25/tan 20° = 0.6869 m),
+    a fillet's middle, the corner's wall arclength (0.25/sin 20° = 0.7310 m) by arclength;
+    a scene's own labels are kept, and other shapes keep ten stations."""
+    import math
+
+    bin_ = {"shape": "bin_hopper", "radius": 0.35, "bin_height": 2.0, "hopper_half_angle": 20.0,
+            "outlet_radius": 0.1, "element_size": 0.05}
+    s = load_scene(scene_dict(bin_)).output
+    assert len(s.stations) == 11 and s.station_labels.count("transition") == 1
+    zt = s.stations[s.station_labels.index("transition")]
+    assert abs(zt - 0.25 / math.tan(math.radians(20.0))) < 1e-6 and s.stations == sorted(s.stations)
+    fillet = load_scene(scene_dict(dict(bin_, fillet_radius=0.3))).output
+    zf = fillet.stations[fillet.station_labels.index("transition")]
+    # the arc's middle: its centre is a tangent length R_f tan(α/2) above the corner, the middle
+    # R_f sin(α/2) below the centre
+    assert abs(zf - zt - 0.3 * (math.tan(math.radians(10.0)) - math.sin(math.radians(10.0)))) < 1e-6
+    by_s = load_scene(scene_dict(bin_, output={"station_coordinate": "s"})).output
+    assert abs(by_s.stations[by_s.station_labels.index("transition")] - 0.25 / math.sin(math.radians(20.0))) < 1e-6
+    named = load_scene(scene_dict(bin_, output={"station_labels": [str(k) for k in range(11)]})).output
+    assert named.station_labels == [str(k) for k in range(11)]
+    assert len(load_scene(scene_dict(HOPPER)).output.stations) == 10

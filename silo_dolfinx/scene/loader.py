@@ -522,14 +522,7 @@ def _resolve_derived(out: dict[str, Any]) -> list[Problem]:
     o = out["output"]
     g = out["geometry"]
     if o["stations"] is DERIVED:
-        if o["station_coordinate"] == "z":
-            hf = g["fill_height"]
-            o["stations"] = [round(hf * (i + 0.5) / 10, 6) for i in range(10)]
-        else:
-            from silo_dolfinx.geometry.shapes import outline_from_geometry
-
-            L = outline_from_geometry(g).wall_length_below_fill
-            o["stations"] = [round(L * (i + 0.5) / 10, 6) for i in range(10)]
+        _default_stations(o, g)
     else:
         from silo_dolfinx.geometry.shapes import outline_from_geometry
 
@@ -549,6 +542,28 @@ def _resolve_derived(out: dict[str, Any]) -> list[Problem]:
                          "unnamed one), or [] for heights only."))
     p += _point_checks(o, g)
     return p
+
+
+def _default_stations(o: dict, g: dict) -> None:
+    """Ten stations evenly spaced on the wetted wall (heights or arclengths), and on a wall
+    with a transition (a bin-hopper's corner, or its fillet's middle) a station there,
+    named "transition" unless the scene names the stations itself: the switch stress that
+    peaks there is the load a designer checks first (thesis ch. 7), and evenly spaced
+    stations step over it."""
+    from silo_dolfinx.geometry.shapes import outline_from_geometry
+
+    ol = outline_from_geometry(g)
+    by_height = o["station_coordinate"] == "z"
+    top = g["fill_height"] if by_height else ol.wall_length_below_fill
+    stations = [round(top * (i + 0.5) / 10, 6) for i in range(10)]
+    if len(ol.transition_points):
+        zt = float(ol.transition_points[len(ol.transition_points) // 2][1])
+        x = round(zt if by_height else float(ol.wall.s_at_height(zt)[0]), 6)
+        if x < top and x not in stations:
+            stations = sorted(stations + [x])
+            if not o["station_labels"]:
+                o["station_labels"] = ["transition" if s == x else "" for s in stations]
+    o["stations"] = stations
 
 
 def _point_checks(o, g) -> list[Problem]:

@@ -445,8 +445,9 @@ OUTPUT = Section(
     "What is written to the results folder.",
     keys=(
         Key("stations", "floats", DERIVED, "m", "Wall stations for time histories, as heights "
-            "(or arclengths, see station_coordinate). Default: 10 evenly spaced on the fill; [] = no "
-            "wall_history.csv (the wall stream is not built)."),
+            "(or arclengths, see station_coordinate). Default: 10 evenly spaced on the fill, and on a "
+            "bin_hopper one at its transition (the corner, or the fillet's middle; labelled \"transition\" "
+            "unless station_labels are given); [] = no wall_history.csv (the wall stream is not built)."),
         C("station_coordinate", ("z", "s"), "z", "z: stations are heights; s: wall arclengths "
           "from the outlet edge."),
         Key("station_labels", "strings", (), "-", "Names of the stations, one per station in the same "

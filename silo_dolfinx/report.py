@@ -409,6 +409,12 @@ class Report:
             k = int(np.nanargmax(r))
             self.numbers.append((f"discharge overpressure, first {min(10.0, t1 - t0):g} s (max, where)",
                                  f"{r[k]:.3g} at z = {z[k]:.2f} m; above filling at {np.sum(r > 1)}/{r.size} stations"))
+            # the ratio peaks where the fill presses least (near the surface); a design checks the rise
+            rise = means[10.0][1] - p_fill
+            k = int(np.nanargmax(rise))
+            self.numbers.append((f"largest rise of the discharge mean over filling, first {min(10.0, t1 - t0):g} s",
+                                 f"{rise[k] / 1e3:+.3g} kPa at {self._station(k, z[k])} (× {r[k]:.3g}; "
+                                 f"the mean there {means[10.0][1][k] / 1e3:.3g} kPa)"))
 
     START_UP = 2.0  # s after opening left out of the dynamics (the thesis' flow is steady after ≈ 2 s)
 

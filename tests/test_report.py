@@ -100,6 +100,9 @@ def test_report_writes_every_figure_and_the_table(synthetic):
     assert ("| stable Δt at the end, set by | 0.000124 s (discharge): the cell at r 0.12 m, z 1.94 m, 3.6 mm "
             "across, 890 kg/m³ |") in text
     assert "| mobilised p_s/p_n, end of discharge" in text and "mean 0.2670" in text
+    # the discharge means are 5 kPa (whole periods of both sines in 10 s) against a filling profile
+    # 9 sin(π z/2.64) + 0.5 kPa: the largest rise is at the lowest station, 5 − 3.944 = +1.06 kPa
+    assert "| largest rise of the discharge mean over filling, first 10 s | +1.06 kPa at z = 0.33 m (× 1.27;" in text
     # the inner half of each row of cells is active: half the area (rows split evenly in r)
     assert "| t = 30 s: share of the fill in the active state (σ1 within 45° of vertical) | 50 % |" in text
 

@@ -46,15 +46,15 @@ for name in SCENES:
     q = quality_report(sm.mesh)
     vol, exact = sm.volume_of_revolution(), scene.outline.volume()
     plot_mesh(sm, OUT / f"{name}.png", title=f"{name}: {q['cells']} cells")
-    rows.append((name, q["cells"], exact, (vol - exact) / exact, q["min_angle_deg"], q["max_aspect_ratio"],
-                 q["inverted"]))
+    rows.append((name, q["cells"], exact, (vol - exact) / exact, q["min_angle_deg"], q["max_angle_deg"],
+                 q["max_aspect_ratio"], q["inverted"]))
 
 # The table: the volume error is round-off for straight walls and O(h²) chord error on
 # fillets; no cell is inverted.
 
 if comm.rank == 0:
-    print(f"{'scene':28s} {'cells':>7s} {'volume m³':>10s} {'vol. error':>11s} {'min angle':>9s} "
+    print(f"{'scene':28s} {'cells':>7s} {'volume m³':>10s} {'vol. error':>11s} {'corners':>13s} "
           f"{'max AR':>7s} {'inverted':>8s}")
     for r in rows:
-        print(f"{r[0]:28s} {r[1]:7d} {r[2]:10.5g} {r[3]:+11.1e} {r[4]:8.1f}° {r[5]:7.2f} {r[6]:8d}")
+        print(f"{r[0]:28s} {r[1]:7d} {r[2]:10.5g} {r[3]:+11.1e} {r[4]:5.1f}-{r[5]:5.1f}° {r[6]:7.2f} {r[7]:8d}")
     print(f"pictures in {OUT}/")

@@ -175,8 +175,8 @@ def _mesh(args) -> int:
     if _rank() == 0:
         exact = scene.outline.volume()
         print(f"{out}: {q['cells']} quadrilaterals; volume of revolution {vol:.6g} m³ "
-              f"(exact {exact:.6g}, {100 * (vol - exact) / exact:+.2e} %); min angle "
-              f"{q['min_angle_deg']:.1f}°, max aspect ratio {q['max_aspect_ratio']:.2f}, "
+              f"(exact {exact:.6g}, {100 * (vol - exact) / exact:+.2e} %); corner angles "
+              f"{q['min_angle_deg']:.1f}-{q['max_angle_deg']:.1f}°, max aspect ratio {q['max_aspect_ratio']:.2f}, "
               f"inverted {q['inverted']}")
         if args.show:
             print(f"{out.with_suffix('.png')}: picture of the mesh")

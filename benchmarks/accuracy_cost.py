@@ -113,6 +113,8 @@ KNOBS = {
     # Table 3-2 carried past 1.0, towards the estimate's stability limit (benchmarks/stable_dt.py: 1-1.5)
     "table_3_2_beyond": ("snapshot", "numerics.time_step_scale", [1.0, 1.1, 1.2, 1.3, 1.4, 1.5], 0.01),
     "mesh_size": ("discharge", "geometry.element_size", [0.08, 0.06, 0.04], 0.03),
+    # cells across the outlet radius (0.1 m at h 0.04: 2.5 / 5 / 10 / 20)
+    "outlet_size_factor": ("discharge", "geometry.outlet_size_factor", [1.0, 0.5, 0.25], 0.125),
     "smoothing_frequency": ("discharge", "ale.frequency", [50, 20, 10, 5], 1),
     "remap_order": ("discharge", "ale.remap_order", [1], 2),
     # where the smoothing starts the interior (no setting is more accurate by construction: the

@@ -914,7 +914,7 @@ class Report:
     def key_numbers(self) -> None:
         s = self.summary
         pairs = [("status", s.get("status", "unknown") + (f" — {s['error']}" if s.get("error") else "")),
-                 ("cells", s.get("cells")), ("steps", s.get("steps")),
+                 ("cells", s.get("cells")), ("outlet resolution", self._outlet_resolution()), ("steps", s.get("steps")),
                  ("simulated time", f"{s['simulated_time']:.6g} s" if "simulated_time" in s else None),
                  ("wall-clock", f"{s['wall_clock_s']:.1f} s" if "wall_clock_s" in s else None),
                  ("steps per second", f"{s['steps_per_second']:.0f}" if "steps_per_second" in s else None),
@@ -924,6 +924,14 @@ class Report:
                  ("energy balance error (max)", f"{100 * s['energy_balance_error_max']:.3f} %"
                   if "energy_balance_error_max" in s else None)]
         self.numbers = [(k, str(v)) for k, v in pairs if v is not None] + self.numbers
+
+    def _outlet_resolution(self) -> str | None:
+        """Cells across the outlet radius (the mass flow depends on it: docs/guide/your-silo.md)."""
+        n = (self.summary.get("mesh_quality") or {}).get("outlet_cells")
+        if not n or self.scene is None:
+            return None
+        r0 = self.scene.outline.outlet_radius
+        return f"{n} cells across the outlet radius ({1e3 * r0 / n:.3g} mm each on average)"
 
     def _dt_limit(self) -> str | None:
         """The cell that set the stable Δt at the end of the last stage (its summary record)."""

@@ -39,7 +39,8 @@ def synthetic(tmp_path):
     (d / "summary.json").write_text(json.dumps({"status": "completed", "title": "synthetic", "cells": 8400,
                                                 "steps": 123, "simulated_time": 72.0, "wall_clock_s": 1.0,
                                                 "steps_per_second": 123.0, "ranks": 2, "stages": stages,
-                                                "stable_dt_initial": 1e-4, "energy_balance_error_max": 0.004}))
+                                                "stable_dt_initial": 1e-4, "energy_balance_error_max": 0.004,
+                                                "mesh_quality": {"outlet_cells": 4}}))
     t = np.arange(0.0, 72.0, 0.005)
     stations = [0.33, 0.66, 1.32]
     rows = []
@@ -97,6 +98,7 @@ def test_report_writes_every_figure_and_the_table(synthetic):
     assert abs(peaks[0] - 0.7) < 0.02 and abs(peaks[1] - 5.0) < 0.02
     assert "Beverloo 32.5 kg/s" in text and "eq. 4-12 longitudinal frequency | 5.15 Hz" in text
     assert "| effective transition (FCB meets the wall) |" in text
+    assert "| outlet resolution | 4 cells across the outlet radius (25 mm each on average) |" in text  # 0.1 m / 4
     assert ("| stable Δt at the end, set by | 0.000124 s (discharge): the cell at r 0.12 m, z 1.94 m, 3.6 mm "
             "across, 890 kg/m³ |") in text
     assert "| mobilised p_s/p_n, end of discharge" in text and "mean 0.2670" in text

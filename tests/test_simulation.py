@@ -41,6 +41,8 @@ def test_results_folder_contract(shared_tmp, comm):
     assert on_disk["status"] == "completed" and [s["name"] for s in on_disk["stages"]] == ["fill", "store",
                                                                                            "discharge"]
     assert on_disk["energy_balance_error_max"] < 0.01
+    # a structured hopper has as many cells across the outlet as across the top: 0.3 m / 0.05 m
+    assert on_disk["mesh_quality"]["outlet_cells"] == 6
     assert on_disk["t_reached"] == on_disk["simulated_time"] > 0.8  # not the last heartbeat's
     # the resolved scene is a scene: it reloads to the same thing (the title aside: a scene
     # made from a dict has none, one read from scene.toml is named after the file)

@@ -475,6 +475,14 @@ class SiloMesh:
         edge = self.mesh.comm.allreduce(local, op=MPI.MIN)
         return edge if np.isfinite(edge) else 0.0
 
+    def outlet_cells(self) -> int:
+        """Cells across the outlet radius: its facets over all ranks, each counted once
+        (collective)."""
+        from mpi4py import MPI
+
+        owned = self.mesh.topology.index_map(self.mesh.topology.dim - 1).size_local
+        return self.comm.allreduce(int(np.sum(self.facets("outlet") < owned)), op=MPI.SUM)
+
     def nodes_on(self, name: str) -> np.ndarray:
         """Local geometry-node indices on the facets tagged ``name`` (owned and ghost)."""
         from dolfinx import mesh as dmesh

@@ -108,9 +108,7 @@ def _mesh_record(scene, sm, results: Results) -> None:
     from silo_dolfinx.geometry.quality import quality_report
 
     q = quality_report(sm.mesh)
-    # the outlet's resolution: its facets (owned ones, counted once) run from the axis to its edge
-    owned = sm.mesh.topology.index_map(sm.mesh.topology.dim - 1).size_local
-    q["outlet_cells"] = sm.comm.allreduce(int(np.sum(sm.facets("outlet") < owned)), op=MPI.SUM)
+    q["outlet_cells"] = sm.outlet_cells()  # the outlet's resolution (docs/guide/your-silo.md)
     plot_mesh(sm, results.path("mesh.png"), title=f"{scene.title}: {q['cells']} cells")
     results.update(cells=q["cells"], mesh_quality=q)
 

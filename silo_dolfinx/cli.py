@@ -170,6 +170,7 @@ def _mesh(args) -> int:
     sm = mesh_scene(scene, MPI.COMM_WORLD, msh_path=out)
     q = quality_report(sm.mesh)
     vol = sm.volume_of_revolution()
+    n_out = sm.outlet_cells()
     if args.show:
         plot_mesh(sm, out.with_suffix(".png"), title=f"{scene.title}: {q['cells']} cells")
     if _rank() == 0:
@@ -177,7 +178,8 @@ def _mesh(args) -> int:
         print(f"{out}: {q['cells']} quadrilaterals; volume of revolution {vol:.6g} m³ "
               f"(exact {exact:.6g}, {100 * (vol - exact) / exact:+.2e} %); corner angles "
               f"{q['min_angle_deg']:.1f}-{q['max_angle_deg']:.1f}°, max aspect ratio {q['max_aspect_ratio']:.2f}, "
-              f"inverted {q['inverted']}")
+              f"inverted {q['inverted']}; {n_out} cells across the outlet radius (a discharge wants about 8 or "
+              "more: docs/guide/your-silo.md)")
         if args.show:
             print(f"{out.with_suffix('.png')}: picture of the mesh")
     return 0

@@ -36,6 +36,8 @@ def test_mesh_writes_msh_and_picture(shared_tmp, capsys, comm):
     if comm.rank == 0:
         text = capsys.readouterr().out
         assert "1275 quadrilaterals" in text and "inverted 0" in text
+        # structured, no floor: every row has ceil(0.5655 m / 0.04 m) = 15 cells, the outlet's too
+        assert "; 15 cells across the outlet radius" in text
 
 
 def test_schema_is_markdown(capsys, comm):

@@ -258,7 +258,7 @@ def _structured(outline: Outline, opts: MeshOptions) -> None:
                                "mesh = \"unstructured\".")
     zs = _band_heights(outline, opts)
     rf = outline.floor_radius
-    has_floor = outline.outlet_radius < rf - 1e-12
+    has_floor = outline.has_floor
     xi_o = outline.outlet_radius / rf  # fraction of each row inside the outlet column
 
     # Radial divisions. Without a floor all rows have n_r cells; with one, the outlet column

@@ -15,12 +15,14 @@ __all__ = ["CYCLE", "aspect_ratios", "cell_corners", "corner_jacobians", "corner
            "worst_cells"]
 
 
-def corner_measures(xy: np.ndarray, sign: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def corner_measures(xy: np.ndarray, sign: float | None = None,
+                    J: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(scaled Jacobian, interior angle in degrees) of every corner of cells ``xy`` (n, 4, 2):
     the sine and the angle between a corner's two edges, both negative where the corner is
     inverted. ``sign``: the mesh's orientation (+1 counter-clockwise); default, the sign of the
-    cells' summed Jacobians (a mesh may be consistently clockwise: gmsh's surface orientation)."""
-    J = corner_jacobians(np.ascontiguousarray(xy))
+    cells' summed Jacobians (a mesh may be consistently clockwise: gmsh's surface orientation).
+    ``J``: the cells' corner_jacobians, if already computed."""
+    J = corner_jacobians(np.ascontiguousarray(xy)) if J is None else J
     if sign is None:
         sign = 1.0 if J.sum() >= 0 else -1.0
     J = sign * J
@@ -40,7 +42,7 @@ def quality_report(mesh) -> dict:
     xy = cell_corners(mesh)
     J = corner_jacobians(np.ascontiguousarray(xy))
     sign = comm.allreduce(float(np.sign(J.sum()) if J.size else 1.0), op=MPI.SUM)
-    scaled, angle = corner_measures(xy, 1.0 if sign >= 0 else -1.0)
+    scaled, angle = corner_measures(xy, 1.0 if sign >= 0 else -1.0, J)
     ar = aspect_ratios(np.ascontiguousarray(xy))
     return {
         "cells": comm.allreduce(xy.shape[0], op=MPI.SUM),

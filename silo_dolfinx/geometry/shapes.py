@@ -65,6 +65,11 @@ class Outline:
             self.wall.pieces) else float(self.wall.end[0])
 
     @property
+    def has_floor(self) -> bool:
+        """Whether the wall starts with a flat floor beyond the outlet edge."""
+        return self.outlet_radius < self.floor_radius - 1e-12
+
+    @property
     def wall_length_below_fill(self) -> float:
         """Arclength of the wall up to the material's top corner on it."""
         z = self.fill_height if self.surface is None else float(self.surface[-1, 1])

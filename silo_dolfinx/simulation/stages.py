@@ -168,7 +168,7 @@ class Discharge(Stage):
         floor has as many in every row as across its top (element_size), else the outlet's own
         refinement (outlet_size_factor)."""
         g, ol = model.scene.geometry, model.outline
-        if g.mesh == "structured" and not ol.outlet_radius < ol.floor_radius - 1e-12:
+        if g.mesh == "structured" and not ol.has_floor:
             return (f"geometry.element_size = {ol.r_max / self.OUTLET_CELLS:.3g} m or less (a structured mesh without a "
                     "floor has as many cells across its outlet as across its top)")
         return f"geometry.outlet_size_factor = {g.outlet_size_factor * max(n, 1) / self.OUTLET_CELLS:.2g}"

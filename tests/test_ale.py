@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import SCENES
+from conftest import SCENES, scene_dict
 from mpi4py import MPI
 
 from silo_dolfinx.geometry import hopper_half_angle
@@ -684,8 +684,9 @@ def test_tracers_follow_the_flow(ale_run):
 def test_controlled_discharge_follows_eq_3_14(shared_tmp, comm):
     """Controlled discharge (eq. 3-14 ramp to u0 over T) through the Eulerian outlet: the mean
     outlet velocity is the prescribed u(t) (the outlet nodes are driven: round-off), and the
-    discharged mass grows at ρ u π R0² — within 25 %, the material near the outlet being
-    looser than ρ0 (dilation) and the outlet edge node sliding on the wall."""
+    discharged mass grows at ρ u π R0² — within 12 %, the material near the outlet being
+    looser than ρ0: ψ 10° dilates it by up to max_dilation (5 %), and the fit starts 0.1 s
+    after the ramp (measured −8 %; the outlet's edge node alone: the next test)."""
     from silo_dolfinx.simulation import ramp_velocity, run
 
     u0, T = 0.3, 0.2
@@ -707,7 +708,48 @@ def test_controlled_discharge_follows_eq_3_14(shared_tmp, comm):
     late = t > T + 0.1
     rate = np.polyfit(t[late], o["discharged_mass"][late], 1)[0]
     expect = sc.material.density * u0 * math.pi * sc.geometry.outlet_radius**2
-    assert abs(rate - expect) < 0.25 * expect, (rate, expect)
+    assert abs(rate - expect) < 0.12 * expect, (rate, expect)
+    assert summary["stages"][-1]["mass_balance_error_max"] < 0.005
+
+
+FLAT_FEEDER = scene_dict({"shape": "flat_bottom", "radius": 0.3, "height": 0.6, "outlet_radius": 0.06,
+                          "element_size": 0.015},
+                         material={"model": "drucker_prager", "density": 1500.0, "youngs_modulus": 2.0e6,
+                                   "friction_angle": 30.0}, wall={"friction": "coulomb", "mu": 0.4})
+
+
+@pytest.mark.parametrize("where", ["hopper", "flat_bottom"])
+def test_a_slow_feeder_lets_out_what_it_feeds(shared_tmp, comm, where):
+    """A feeder at 0.02 m/s under a solid that does not dilate (ψ = 0): what leaves is
+    ρ0 u π R0², whatever presses on the outlet's edge node. Driven down with its radial motion
+    free, that node was pushed into the wall by the solid's pressure each step and the remap
+    let the wall edge beside it sweep the difference out: a leak set by the pressure, +15 % on
+    the ch. 3 hopper at this speed (a 2-m wheat bin: 5× at 0.005 m/s), and on a flat bottom the
+    floor edge's sliver under the floor, +27 % at 4 cells across the outlet radius. Now the
+    node slides down a hopper's wall with the feeder, and on a floor goes down at half its
+    speed (effects.OutletDrive): measured −2.5 % and +1.9 %. 5 % holds the transient after the
+    ramp (the fit starts 0.1 s after it) and the floor rule's O(h/R0)² remainder, and fails
+    either old leak three times over."""
+    from silo_dolfinx.simulation import run
+
+    u0, T = 0.02, 0.1
+    sets = ['fill.method="k0"', "store.duration=0.0", "discharge.duration=0.8", 'discharge.mode="controlled"',
+            f"discharge.velocity={u0}", f"discharge.ramp_time={T}", "output.history_rate=100.0",
+            "output.field_interval=100.0", "ale.tracer_rows=0"]
+    if where == "hopper":
+        sc = load_scene(SCENES / "hopper_ch3_ale.toml", sets + ["geometry.element_size=0.05",
+                                                                 "material.dilation_angle=0.0"])
+    else:
+        sc = load_scene(FLAT_FEEDER, sets)
+    out = shared_tmp / f"feeder_{where}"
+    summary = run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    o = read_csv(out / "outlet.csv")
+    t = o["t"] - o["t"][0]
+    late = t > T + 0.1
+    rate = np.polyfit(t[late], o["discharged_mass"][late], 1)[0]
+    expect = sc.material.density * u0 * math.pi * sc.geometry.outlet_radius**2
+    assert abs(rate / expect - 1.0) < 0.05, (rate, expect)
     assert summary["stages"][-1]["mass_balance_error_max"] < 0.005
 
 

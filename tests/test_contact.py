@@ -435,25 +435,28 @@ def test_the_node_at_the_outlet_edge_is_held_to_the_walls_line(comm, scene, alon
 
 def test_eq_7_1_discharge_slipping_nodes_carry_mu_of_their_slip_speed(shared_tmp, comm):
     """A coarse bin-hopper discharge with eq. 7-1 friction (the ch. 7 dynamic scene: μs 0.67,
-    μk 0.3, ϖ 2 s/m; bin shortened to 1 m, h 0.05, K0 start, 1 m/s controlled outlet ramped in
-    0.2 s; the cone matched in extension, with which the ch. 7 solid flows, docs/validation/ch7.md):
+    μk 0.3, but ϖ 20 s/m; bin shortened to 1 m, h 0.05, K0 start, 1 m/s controlled outlet ramped
+    in 0.2 s; the cone matched in extension, with which the ch. 7 solid flows, docs/validation/ch7.md):
     at the end every wall node in contact that slides carries |p_s| = μ(|v_slip|)·p_n, with μ
     the law's value at its own slip speed (the contact solves μ(v) by fixed-point iteration:
-    measured within 1e-9); the slip speeds spread enough that μ spans > 0.05 (measured 0.47 at
-    the outlet edge to 0.666: the law, not a constant μ, is what is checked); sticking nodes stay
-    within μs."""
+    measured within 1e-12); the slip speeds spread enough that μ spans > 0.05 (measured 0.300 to
+    0.658 over 0.06-0.54 m/s: the law, not a constant μ, is what is checked); sticking nodes stay
+    within μs. Why ϖ 20: at the scene's 2 this short bin's wall sticks or creeps (≤ 0.03 m/s,
+    μ 0.65-0.67), and a check over that span cannot tell the law from a constant. The 0.47 once
+    measured there at ϖ 2 was the node beside the outlet's edge, dragged by that node's leak
+    into the wall (fixed: effects.OutletDrive)."""
     out = shared_tmp / "eq71"
     sc = load_scene(SCENES / "bin_hopper_ch7_dynamic.toml", [
         "geometry.element_size=0.05", "geometry.bin_height=1.0", 'fill.method="k0"', 'material.cone="extension"',
         "discharge.ramp_time=0.2", "discharge.duration=0.6", "store.duration=0.2", "output.field_interval=100",
-        "output.stations=[0.3, 0.687, 1.0]"])
+        "output.stations=[0.3, 0.687, 1.0]", "wall.decay=20.0"])
     summary = run(sc, out, comm, progress_every=1e9)
     comm.barrier()
     w = read_profile(out / "wall_profile_discharge.csv")
     v = np.abs(w["slip_velocity"])
     touching = (w["in_contact"] > 0) & (w["p_n"] > 0)
     slip = touching & (v > 1e-4)
-    mu = theory.dynamic_friction(v[slip], 0.67, 0.3, 2.0)
+    mu = theory.dynamic_friction(v[slip], 0.67, 0.3, 20.0)
     assert slip.sum() >= 10
     assert np.abs(np.abs(w["p_s"][slip]) / w["p_n"][slip] - mu).max() < 1e-6
     assert mu.max() - mu.min() > 0.05

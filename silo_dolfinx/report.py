@@ -57,6 +57,12 @@ class Report:
         matplotlib.use("Agg")
 
     # ------------------------------------------------------------------ helpers
+    @staticmethod
+    def _low_frequency(f: float, span: float) -> str:
+        """The < 1 Hz part's dominant frequency, or why there is none (a record too short for a
+        peak below 1 Hz: its spectrum's first bins are the window's own)."""
+        return f"at {f:.3g} Hz" if np.isfinite(f) else f"with no peak below 1 Hz in its {span:.3g}-s record"
+
     def _station(self, k, z: float) -> str:
         """How station ``k`` (its index in output.stations) at height ``z`` is named in figures and
         numbers: "z = 0.66 m", or with output.station_labels "D (z = 0.69 m)"."""
@@ -476,8 +482,8 @@ class Report:
         self.numbers.append((f"station {name}: RMS of p_n above 1 Hz", f"{e[6]:.3g} Pa"))
         self.numbers.append((f"station {name} (≈ h/4, point e): < 1 Hz RMS, its frequency (in 10-s windows); "
                              "wave peak",
-                             f"{e[4]:.3g} Pa at {e[5]:.3g} Hz ({e[10]:.3g} Pa); {e[7]:.3g} Hz (from {e[2]:.3g} s after "
-                             "opening)"))
+                             f"{e[4]:.3g} Pa {self._low_frequency(e[5], t1 - t_open - e[2])} ({e[10]:.3g} Pa); "
+                             f"{e[7]:.3g} Hz (from {e[2]:.3g} s after opening)"))
         self.numbers.append((f"station {name}: mobilised |p_s|/p_n, time sliding",
                              f"{e[8]:.4f}; {100 * e[9]:.0f} % of the discharge"))
         t0 = t_open + e[2]

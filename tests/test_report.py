@@ -328,6 +328,15 @@ def test_report_names_stations_by_their_labels(synthetic):
     assert (r._station(0, 0.33), r._station(2, 1.32)) == ("a (z = 0.33 m)", "z = 1.32 m")
 
 
+def test_a_record_too_short_for_a_slow_peak_says_so():
+    """A 4-s discharge measured from 2 s after its opening has 2 s of record: its spectrum's
+    first bin is 0.5 Hz, so no peak below 1 Hz is found; the report said 'at nan Hz'."""
+    from silo_dolfinx.report import Report
+
+    assert Report._low_frequency(0.45, 20.0) == "at 0.45 Hz"
+    assert Report._low_frequency(float("nan"), 2.0) == "with no peak below 1 Hz in its 2-s record"
+
+
 def test_a_bin_hoppers_own_k_is_measured_on_its_vertical_wall(tmp_path):
     """The solid's own K, drawn with Janssen on a bin-hopper's wall, is measured on the vertical
     wall from one radius above the transition. A synthetic fill: a uniform σ_zz of −10 kPa, and

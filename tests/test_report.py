@@ -285,6 +285,27 @@ def test_flow_channel_at_successive_discharged_volumes(flat_bottom):
     assert steady.startswith("t = 1 s"), steady
 
 
+def test_a_short_discharge_shows_its_last_flow_channel_too(flat_bottom):
+    """A run that stops at V_dis 2.1 % (the outlet record cut at 3 s) reaches only the first
+    target, 0.1 %; its last snapshot (t 4.1 s, the channel most developed) is drawn and measured
+    as well - before, a user's 4-s discharge showed only the channel 0.5 s after opening."""
+    from silo_dolfinx.report import Report
+
+    o = read_csv(flat_bottom / "outlet.csv")
+    keep = o["t"] <= 3.0
+    write_csv(flat_bottom / "outlet.csv", ["t", "discharged_mass", "mass_in_silo", "mass_flow_rate",
+                                           "mean_outlet_velocity"],
+              [[o["t"][i], o["discharged_mass"][i], o["mass_in_silo"][i], 0.0, 0.0] for i in np.nonzero(keep)[0]])
+    for i in (2, 3):
+        (flat_bottom / "fields" / f"snapshot_{i:04d}.npz").unlink()
+    rep = Report(flat_bottom)
+    rep.flow_channel()
+    f = read_csv(flat_bottom / "flow_channel.csv")
+    last = (16.0 + 32.0 * 2.0) / 3840.0 * 100.0  # V_dis when the record ends: 2.08 %
+    assert np.allclose(np.unique(np.round(f["v_dis"], 6)), [0.1, round(last, 6)])
+    assert f"effective transition (FCB meets the wall) at V_dis {last:.2g} %" in dict(rep.numbers)
+
+
 def test_report_fits_janssen_to_a_filled_vertical_wall(tmp_path):
     """A flat-bottomed silo's end-of-fill wall carrying Janssen's pressure for (K 0.55, μ 0.45):
     the report's fit of the vertical wall gives K and μ back (to round-off of the least

@@ -158,7 +158,7 @@ RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a control
 
 FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a discharge with field snapshots: the "
                        "flow-channel boundary (v_z = 0.001 × the centreline v_z at the same height, ch. 6.4.3) at the "
-                       "snapshots nearest to V_dis = 0.1, 3, 6, 10 % (or the last one).", (
+                       "snapshots nearest to V_dis = 0.1, 3, 6, 10 % and at the last one.", (
     C("v_dis", "%", "discharged volume at the snapshot (eq. 6-2, in mass)"), T,
     C("z", "m", "height"),
     C("r_fcb", "m", "radius of the boundary (empty: the whole section flows)"),

@@ -339,7 +339,9 @@ DISCHARGE = Section(
     keys=(
         C("mode", ("none", "free", "controlled"), "none",
           "none: no discharge stage; free: the outlet support is removed at once; controlled: "
-          "the outlet velocity is prescribed, u(t) = u0/2·(1 − cos(π t/ramp_time)) then u0."),
+          "the outlet velocity is prescribed, u(t) = u0/2·(1 − cos(π t/ramp_time)) then u0 (a feeder: the node "
+          "at the outlet's edge slides down a wall steeper than 45° with it, beside a flatter wall or a floor it "
+          "goes down at u/2; what leaves is ρ u π R0², ρ the density at the outlet)."),
         F("duration", 0.0, "s", "Duration of the discharge stage.", **DURATION),
         C("gate", ("smooth", "rough", "fixed"), "smooth",
           "How the closed outlet holds the solid before discharge: smooth (no friction), rough "

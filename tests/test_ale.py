@@ -872,7 +872,8 @@ def test_dilation_is_reported_with_its_fix(ale_run):
     dilates the solid for as long as it shears (a cell of the same run with max_dilation = 0
     reached 415 kg/m³ when ψ_DP was 10°), and a stage that ends below half of ρ0 is warned
     about, naming material.max_dilation; with it, what can still loosen a cell is tensile
-    separation at the cone's apex, and the warning says so."""
+    separation at the cone's apex, and the warning says so and names material.recompaction
+    unless it is on."""
     import glob
 
     from silo_dolfinx.simulation import _dilation_warnings
@@ -896,4 +897,8 @@ def test_dilation_is_reported_with_its_fix(ale_run):
     assert len(warned) == 1 and "discharge" in warned[0] and "Set material.max_dilation" in warned[0]
     warned = _dilation_warnings(sc, [dict(d, density_min=0.4 * rho0)])  # bounded: the apex's separation
     assert len(warned) == 1 and "apex" in warned[0] and "Set material.max_dilation" not in warned[0]
+    assert "material.recompaction = true" in warned[0]  # the key that closes it (a flat bottom's flow decays)
+    closing = sc.with_overrides(["material.recompaction=true"])  # on already: the cause, no key to set
+    warned = _dilation_warnings(closing, [dict(d, density_min=0.4 * rho0)])
+    assert len(warned) == 1 and "apex" in warned[0] and "material.recompaction" not in warned[0]
     assert _dilation_warnings(sc, [dict(d, density_min=0.6 * rho0)]) == []

@@ -159,10 +159,14 @@ def _dilation_warnings(scene, stages: list[dict]) -> list[str]:
                            "for as long as it shears. Set material.max_dilation > 0 (the default 0.05: a critical "
                            "state) or dilation_angle = 0 if the flowing solid should keep its density.")
             else:
+                fix = ("" if m.get("recompaction", False) else
+                       " Set material.recompaction = true to close the opened volume again (with "
+                       "ale.max_surface_slope ≈ φ if the flow channel then reaches the surface): a flat-bottomed "
+                       "silo's flow otherwise decays (docs/guide/your-silo.md, section 5).")
                 out.append(head + "the plastic dilation is bounded (max_dilation or ψ = 0), so this is tensile "
                            "separation at the yield surface's apex, where the solid is stretched at near-zero "
                            "pressure (the free-fall zone above an outlet, a free-surface crater); a yield surface "
-                           "without a cap does not recompact it. Its stable Δt falls with its density.")
+                           "without a cap does not recompact it. Its stable Δt falls with its density." + fix)
     return out
 
 

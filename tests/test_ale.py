@@ -705,11 +705,16 @@ def test_controlled_discharge_follows_eq_3_14(shared_tmp, comm):
     v = o["mean_outlet_velocity"]
     assert np.allclose(v, [u(tt) for tt in t], rtol=0, atol=2e-3)
     assert np.allclose(v[t > T + 0.01], u0, rtol=1e-9)
-    late = t > T + 0.1
-    rate = np.polyfit(t[late], o["discharged_mass"][late], 1)[0]
-    expect = sc.material.density * u0 * math.pi * sc.geometry.outlet_radius**2
+    rate, expect = feeder_rate(o, T), sc.material.density * u0 * math.pi * sc.geometry.outlet_radius**2
     assert abs(rate - expect) < 0.12 * expect, (rate, expect)
     assert summary["stages"][-1]["mass_balance_error_max"] < 0.005
+
+
+def feeder_rate(o: dict, ramp_time: float) -> float:
+    """The discharged mass's rate (kg/s) fitted from 0.1 s after a controlled outlet's ramp."""
+    t = o["t"] - o["t"][0]
+    late = t > ramp_time + 0.1
+    return float(np.polyfit(t[late], o["discharged_mass"][late], 1)[0])
 
 
 FLAT_FEEDER = scene_dict({"shape": "flat_bottom", "radius": 0.3, "height": 0.6, "outlet_radius": 0.06,
@@ -744,10 +749,7 @@ def test_a_slow_feeder_lets_out_what_it_feeds(shared_tmp, comm, where):
     out = shared_tmp / f"feeder_{where}"
     summary = run(sc, out, comm, progress_every=1e9)
     comm.barrier()
-    o = read_csv(out / "outlet.csv")
-    t = o["t"] - o["t"][0]
-    late = t > T + 0.1
-    rate = np.polyfit(t[late], o["discharged_mass"][late], 1)[0]
+    rate = feeder_rate(read_csv(out / "outlet.csv"), T)
     expect = sc.material.density * u0 * math.pi * sc.geometry.outlet_radius**2
     assert abs(rate / expect - 1.0) < 0.05, (rate, expect)
     assert summary["stages"][-1]["mass_balance_error_max"] < 0.005

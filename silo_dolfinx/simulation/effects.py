@@ -241,11 +241,12 @@ class OutletDrive(Effect):
             self.drive(self.model.solver.t)
 
     def edge_rule(self) -> tuple[float, float]:
-        """(dr/dt, dz/dt) of the outlet's edge node per unit feeder speed u (module docstring)."""
-        t = self.model.outline.wall.pieces[0]
-        dr, dz = t.end[0] - t.start[0], t.end[1] - t.start[1]
+        """(dr/dt, dz/dt) of the outlet's edge node per unit feeder speed u (module docstring),
+        from the wall's tangent (dr, dz) at the outlet edge (its normal into the wall turned)."""
+        n = self.model.outline.wall.point_normal_at(0.0)[1][0]
+        dr, dz = -n[1], n[0]
         if abs(dr) <= self.SLIDE_SLOPE * dz:
-            return -dr / dz, -1.0
+            return float(-dr / dz), -1.0
         return 0.0, -0.5
 
     def drive(self, t0: float) -> None:

@@ -904,3 +904,20 @@ def test_dilation_is_reported_with_its_fix(ale_run):
     warned = _dilation_warnings(closing, [dict(d, density_min=0.4 * rho0)])
     assert len(warned) == 1 and "apex" in warned[0] and "material.recompaction" not in warned[0]
     assert _dilation_warnings(sc, [dict(d, density_min=0.6 * rho0)]) == []
+
+
+def test_the_top_polyline_is_walked_along_its_edges_not_sorted_by_radius():
+    """A re-meshed surface with a pit need not be a graph of r (its side can lean over): the
+    smoother orders the top nodes by walking the top facets from the axis corner to the wall
+    corner. Sorting by radius scrambled such a surface (a rezone then stopped a run: 'not the
+    top edges of one cell each'). A chain that folds back in r is walked in its own order; a
+    branched or broken chain is refused (None), not guessed."""
+    from silo_dolfinx.ale.smoothing import _walk
+
+    # axis 0 -> 1 -> 2 -> 3 -> 4 wall, radii 0, .3, .2 (leans back), .5, .9: argsort(r) would give 0 2 1 3 4
+    edges = np.array([[2, 3], [0, 1], [3, 4], [1, 2]])
+    assert _walk(edges, 0, 4) == [0, 1, 2, 3, 4]
+    assert _walk(edges, 4, 0) == [4, 3, 2, 1, 0]
+    assert _walk(np.array([[0, 1], [1, 2], [1, 3], [3, 4]]), 0, 4) is None  # a branch at node 1
+    assert _walk(np.array([[0, 1], [2, 3], [3, 4]]), 0, 4) is None  # a gap between 1 and 2
+    assert _walk(np.array([[0, 1], [1, 2], [2, 4], [5, 6], [6, 5]]), 0, 4) is None  # edges off the chain

@@ -134,21 +134,23 @@ class Smoother:
         # axis: initial heights
         self.Z0 = self.X[self.axis_nodes, 1].copy()
         # top: the polyline of all top nodes (corners included) from the axis to the wall, in
-        # the order of their reference radii; gathered every smoothing by one Allgatherv
+        # the order of its edges (a surface re-meshed with a pit need not be a graph of r);
+        # gathered every smoothing by one Allgatherv
         gidx = nmap.local_to_global(np.arange(self.n_nodes, dtype=np.int32))
         self._top_all = np.nonzero(own & ((cls == TOP) | (cls == TOP_CORNER)) & on["top"])[0]
         counts = np.array(self.comm.allgather(2 * self._top_all.size))
         self._top_counts = (counts, np.concatenate([[0], np.cumsum(counts)[:-1]]))
         self._top_buf = np.empty(int(counts.sum()))
-        r0 = np.concatenate(self.comm.allgather(self.X[self._top_all, 0]))
-        order = np.concatenate(self.comm.allgather(gidx[self._top_all]))
-        self._top_order = np.argsort(r0, kind="stable")
-        order = order[self._top_order]
+        gathered = np.concatenate(self.comm.allgather(gidx[self._top_all]))
         # its ends are the two top corners (Lagrangian): the axis one's height and the wall
         # one's arclength scale the axis and the upper wall
         g_axis, g_wall = self._global_value(gidx[self.axis_corner], gidx[self.wall_corner])
-        if not (order[0] == g_axis and order[-1] == g_wall):
+        order = _walk(self._top_edges(sm, gidx), int(g_axis), int(g_wall))
+        place = {int(g): i for i, g in enumerate(gathered)}
+        if order is None or len(order) != gathered.size or any(g not in place for g in order):
             raise ValueError("the top surface does not run from the axis to the wall: not a silo mesh")
+        self._top_order = np.array([place[g] for g in order], np.int64)
+        order = np.asarray(order, np.int64)
         pts = self._top_polyline(self.X)
         self.S0_top, self.Z0_top = self._top_corners(pts)
         s = _arclength(pts)
@@ -184,6 +186,15 @@ class Smoother:
         g = np.empty_like(v)
         self.comm.Allreduce(v, g, op=MPI.MAX)
         return tuple(float(x) if np.isfinite(x) else float("nan") for x in g)
+
+    def _top_edges(self, sm, gidx) -> np.ndarray:
+        """Every top facet's two nodes (global indices), gathered on every rank, each once."""
+        from dolfinx import mesh as dmesh
+
+        nodes = dmesh.entities_to_geometry(sm.mesh, 1, sm.facets("top"))
+        pairs = np.sort(gidx[nodes].reshape(-1, 2), axis=1)
+        allp = np.concatenate(self.comm.allgather(pairs))
+        return np.unique(allp, axis=0) if allp.size else allp.reshape(0, 2)
 
     def _top_polyline(self, x: np.ndarray) -> np.ndarray:
         """Positions of all top nodes in order from the axis to the wall (on every rank)."""
@@ -597,3 +608,22 @@ def _arclength(pts):
     for k in range(1, pts.shape[0]):
         s[k] = s[k - 1] + math.sqrt((pts[k, 0] - pts[k - 1, 0]) ** 2 + (pts[k, 1] - pts[k - 1, 1]) ** 2)
     return s
+
+
+def _walk(edges: np.ndarray, start: int, end: int) -> list[int] | None:
+    """The nodes of the chain of ``edges`` (global node pairs, each once) from ``start`` to
+    ``end``, in order; None if the edges are not one simple chain between them."""
+    nbrs: dict[int, list[int]] = {}
+    for a, b in edges.tolist():
+        nbrs.setdefault(a, []).append(b)
+        nbrs.setdefault(b, []).append(a)
+    if any(len(v) > 2 for v in nbrs.values()) or len(nbrs.get(start, ())) != 1:
+        return None
+    path, prev = [start], None
+    while path[-1] != end:
+        nxt = [n for n in nbrs[path[-1]] if n != prev]
+        if len(nxt) != 1:
+            return None
+        prev = path[-1]
+        path.append(nxt[0])
+    return path if len(path) == len(nbrs) else None

@@ -352,3 +352,21 @@ def test_a_bin_hopper_gets_a_station_at_its_transition():
     named = load_scene(scene_dict(bin_, output={"station_labels": [str(k) for k in range(11)]})).output
     assert named.station_labels == [str(k) for k in range(11)]
     assert len(load_scene(scene_dict(HOPPER)).output.stations) == 10
+
+
+def test_a_flat_bottomed_discharge_is_told_what_holds_its_flow_before_it_runs():
+    """A flat-bottomed silo's free discharge without recompaction and the surface slump decays or
+    ends on a pit (docs/guide/your-silo.md, section 5: 174 -> 82 kg/s in 12 s); `silo check`
+    says so before any step, naming exactly the keys that are missing - and nothing once they are
+    set, for a controlled outlet, or for a hopper."""
+    def advice(path, overrides=()):
+        return [w for w in load_scene(SCENES / path, list(overrides)).warnings if "flat-bottomed" in w]
+
+    both = advice("flat_bottom_ch6.toml")
+    assert len(both) == 1 and "material.recompaction = true" in both[0] and "ale.max_surface_slope = 35" in both[0]
+    one = advice("flat_bottom_ch6.toml", ["ale.max_surface_slope=35"])
+    assert len(one) == 1 and "material.recompaction" in one[0] and "max_surface_slope" not in one[0]
+    assert advice("flat_bottom_ch6.toml", ["ale.max_surface_slope=35", "material.recompaction=true"]) == []
+    assert advice("flat_bottom_ch6_discharge.toml") == []  # sets both
+    assert advice("flat_bottom_ch6.toml", ['discharge.mode="controlled"', "discharge.velocity=0.05"]) == []
+    assert advice("hopper_ch4.toml") == []

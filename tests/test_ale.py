@@ -921,3 +921,27 @@ def test_the_top_polyline_is_walked_along_its_edges_not_sorted_by_radius():
     assert _walk(np.array([[0, 1], [1, 2], [1, 3], [3, 4]]), 0, 4) is None  # a branch at node 1
     assert _walk(np.array([[0, 1], [2, 3], [3, 4]]), 0, 4) is None  # a gap between 1 and 2
     assert _walk(np.array([[0, 1], [1, 2], [2, 4], [5, 6], [6, 5]]), 0, 4) is None  # edges off the chain
+
+
+def test_a_top_that_leans_back_is_ordered_by_its_facets(comm):
+    """The smoother's top polyline on a real mesh whose surface is not a graph of r: the third
+    top node from the axis leans out over its outer neighbour (a pit's overhanging side). The
+    polyline runs along the top facets - axis, 0.08, the leaning node, 0.24, ... - where the
+    order by radius (before) put 0.24 ahead of it and joined nodes that share no facet."""
+    from silo_dolfinx.ale import Smoother
+    from silo_dolfinx.simulation import SiloModel, mesh_scene
+
+    sc = _ch3_scene(True, 0.1, h=0.08)
+    sm = mesh_scene(sc, comm)
+    wall = SiloModel(sc, sm).contact_wall_open
+    x = sm.mesh.geometry.x
+    top = sm.nodes_on("top")  # owned and ghost: every rank moves its copy alike
+    radii = np.unique(np.round(np.concatenate(comm.allgather(x[top, 0])), 12))
+    r2, r3 = radii[2], radii[3]
+    lean = top[np.isclose(x[top, 0], r2)]
+    x[lean, 0] = r3 + 0.3 * (r3 - r2)
+    x[lean, 1] += 0.5 * (r3 - r2)
+    pts = Smoother(sm, wall)._top_polyline(np.ascontiguousarray(x[:, :2]))
+    expected = np.concatenate([radii[:2], [r3 + 0.3 * (r3 - r2)], radii[3:]])
+    assert pts.shape[0] == radii.size and np.allclose(pts[:, 0], expected)
+    assert pts[2, 0] > pts[3, 0]  # not monotone in r: the order is the facets'

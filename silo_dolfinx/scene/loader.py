@@ -307,12 +307,15 @@ def _flat_bottom_discharge_advice(s: dict) -> list[str]:
     with both, 203-216 kg/s for the 12 s (docs/guide/your-silo.md, section 5). The ch. 8 silo
     (outlet 0.125 of radius 0.35 m) decays without it and pipes to its surface with it. Said
     before the run so that it costs nothing to act on; the run is not refused."""
+    from silo_dolfinx.geometry.shapes import outline_from_geometry
+
     m, d, a = s["material"], s["discharge"], s["ale"]
-    if (s["geometry"].get("shape") != "flat_bottom" or d["mode"] != "free" or d["duration"] <= 0.0
-            or "recompaction" not in m):
+    if d["mode"] != "free" or d["duration"] <= 0.0 or "recompaction" not in m:
+        return []
+    if outline_from_geometry(s["geometry"]).floor_pieces == 0:  # any wall with a floor at the outlet
         return []
     fix = [k for k, off in (("material.recompaction = true", not m["recompaction"]),
-                            (f"ale.max_surface_slope = {m.get('friction_angle', 30.0):g} (φ)",
+                            (f"ale.max_surface_slope = {m['friction_angle']:g} (φ)",
                              a["enabled"] and a["max_surface_slope"] == 0.0)) if off]
     if not fix:
         return []

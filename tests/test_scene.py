@@ -306,6 +306,56 @@ def test_docs_match_schema():
     assert (ROOT / "docs" / "scene.md").read_text() == markdown()
 
 
+# Keys of [numerics] and [ale] that are not accuracy knobs, and why (every other key of those two
+# sections must be one: a new numerical key is either measured by benchmarks/accuracy_cost.py or
+# says here why it needs no table)
+NOT_KNOBS = {
+    "numerics.min_time_step_fraction": "a guard: where a run stops with a diagnosis, not how it approximates",
+    "numerics.max_steps": "a guard against a scene that would never finish",
+    "ale.max_surface_slope": "physics: the solid's angle of repose at its free surface, not an approximation",
+    "ale.tracer_rows": "output: material points for flow patterns (their cost: benchmarks/effects_cost.py)",
+    "ale.tracer_columns": "output, as tracer_rows",
+}
+
+
+def _accuracy_benchmark():
+    import importlib.util
+    import sys
+
+    spec = importlib.util.spec_from_file_location("accuracy_cost", ROOT / "benchmarks" / "accuracy_cost.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # (its dataclasses look their module up)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_accuracy_knob_has_its_table_and_every_table_its_knob():
+    """The user asked for a measured accuracy-vs-wall-clock table for every accuracy knob: the
+    schema's map of knobs (whose docs name the command) and benchmarks/accuracy_cost.py's tables
+    are the same set, each table varies the key the map gives it, every key of [numerics] and [ale]
+    is a knob or says why not, and every row of every table is a scene the loader accepts (a
+    table that cannot run is caught here, not after half an hour of benchmark)."""
+    from silo_dolfinx.scene.schema import ACCURACY_KNOBS, SECTION_BY_NAME
+
+    bench = _accuracy_benchmark()
+    by_table = {t: key for key, tables in ACCURACY_KNOBS.items() for t in tables}
+    assert set(by_table) == set(bench.KNOBS), "tables without a knob, or knobs without a table"
+    for table, (problem, key, values, ref) in bench.KNOBS.items():
+        assert key == by_table[table], f"{table} varies {key}, the schema says {by_table[table]}"
+        for value in (ref, *values):
+            text = str(value).lower() if not isinstance(value, list) else "[" + ", ".join(map(str, value)) + "]"
+            sets = [o.format(discharge=2.0) for o in bench.PROBLEMS[problem].overrides] + [f"{key}={text}"]
+            load_scene(SCENES / bench.PROBLEMS[problem].scene, sets)  # raises SceneError on a bad row
+    for dotted in ACCURACY_KNOBS:
+        section, name = dotted.split(".")
+        assert name in SECTION_BY_NAME[section].all_key_names(), f"{dotted} is not a scene key"
+    for section in ("numerics", "ale"):
+        for name in SECTION_BY_NAME[section].all_key_names():
+            dotted = f"{section}.{name}"
+            assert (dotted in ACCURACY_KNOBS) != (dotted in NOT_KNOBS), f"{dotted}: a knob, or say why not"
+    assert "accuracy_cost.py --knobs smoothing_frequency" in (ROOT / "docs" / "scene.md").read_text()
+
+
 CH4 = SCENES / "hopper_ch4.toml"
 
 

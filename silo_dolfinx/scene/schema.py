@@ -485,6 +485,43 @@ SECTIONS: tuple[Section, ...] = (
 SECTION_BY_NAME = {s.name: s for s in SECTIONS}
 REQUIRED_SECTIONS = ("geometry", "material", "wall")
 
+# The accuracy knobs: keys that change how closely the run approximates the same silo and solid,
+# and what it costs in time (not the silo, the solid or what is recorded). Each names its tables in
+# ``python benchmarks/accuracy_cost.py --knobs NAME`` (error against the most accurate setting, and
+# wall-clock); docs/performance.md quotes them. A test holds this map and that script's tables to
+# each other, and every key of [numerics] and [ale] to being a knob or saying why it is not.
+ACCURACY_KNOBS: dict[str, tuple[str, ...]] = {
+    "geometry.element_size": ("mesh_size",),
+    "geometry.mesh": ("mesh_type",),
+    "geometry.max_aspect_ratio": ("max_aspect_ratio",),
+    "geometry.outlet_size_factor": ("outlet_size_factor",),
+    "geometry.transition_size_factor": ("transition_size_factor",),
+    "geometry.refinement_distance": ("refinement_distance",),
+    "fill.method": ("fill_method",),
+    "fill.duration": ("fill_duration",),
+    "fill.ramp_fraction": ("fill_ramp_fraction",),
+    "fill.damping": ("fill_damping",),
+    "fill.layers": ("fill_layers",),
+    "store.duration": ("store_duration",),
+    "store.kinetic_energy_tol": ("store_kinetic_energy_tol",),
+    "numerics.time_step_scale": ("time_step_scale", "table_3_2", "table_3_2_filled", "table_3_2_beyond"),
+    "numerics.bulk_viscosity": ("bulk_viscosity",),
+    "numerics.mass_scaling": ("mass_scaling",),
+    "numerics.integration": ("integration", "integration_filling"),
+    "numerics.hourglass_viscosity": ("hourglass_viscosity",),
+    "numerics.hourglass_stiffness": ("hourglass_stiffness",),
+    "ale.enabled": ("lagrangian",),
+    "ale.frequency": ("smoothing_frequency",),
+    "ale.sweeps": ("smoothing_sweeps",),
+    "ale.laplacian_weight": ("laplacian_weight",),
+    "ale.mid_area_weight": ("mid_area_weight",),
+    "ale.remap_order": ("remap_order",),
+    "ale.predictor": ("smoothing_predictor",),
+    "ale.smoothing_objective": ("smoothing_objective",),
+    "ale.rezone_dt_fall": ("rezone_dt_fall",),
+    "ale.rezone_min_quality": ("rezone_min_quality",),
+}
+
 
 def markdown() -> str:
     """The scene reference as Markdown (docs/scene.md is this, verbatim)."""
@@ -502,19 +539,22 @@ def markdown() -> str:
         _table(TOP_KEYS),
     ]
     for s in SECTIONS:
-        out += ["", f"## [{s.name}]", "", s.doc, "", _table(s.keys)]
+        out += ["", f"## [{s.name}]", "", s.doc, "", _table(s.keys, s.name)]
         for v, ks in s.variants.items():
             if ks:
-                out += ["", f"`{s.selector} = \"{v}\"`:", "", _table(ks)]
+                out += ["", f"`{s.selector} = \"{v}\"`:", "", _table(ks, s.name)]
     return "\n".join(out) + "\n"
 
 
-def _table(keys) -> str:
+def _table(keys, section: str = "") -> str:
     rows = ["| key | unit | default | allowed | meaning |", "|---|---|---|---|---|"]
     for k in keys:
         d = k.default
         ds = "**required**" if d is REQUIRED else ("derived" if d is DERIVED else f"`{_toml(d)}`")
-        rows.append(f"| `{k.name}` | {k.unit or '-'} | {ds} | {k.range_text()} | {k.doc} |")
+        knobs = ACCURACY_KNOBS.get(f"{section}.{k.name}", ())
+        cost = (" *Accuracy knob:* error and wall-clock by setting, `python benchmarks/accuracy_cost.py --knobs "
+                + " ".join(knobs) + "` (docs/performance.md)." if knobs else "")
+        rows.append(f"| `{k.name}` | {k.unit or '-'} | {ds} | {k.range_text()} | {k.doc}{cost} |")
     return "\n".join(rows)
 
 

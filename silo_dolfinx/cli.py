@@ -33,6 +33,9 @@ def _parser() -> argparse.ArgumentParser:
 
     sp = sub.add_parser("check", help="validate a scene and print it with all defaults resolved")
     scene_args(sp)
+    sp.add_argument("--cost", action="store_true", help="also mesh it and estimate what it costs: the stable Δt and "
+                    "the cell that sets it, the steps, the wall-clock on 1 and 2 ranks (and --ranks)")
+    sp.add_argument("--ranks", type=int, default=None, help="with --cost: also estimate the wall-clock on this many ranks")
     sp = sub.add_parser("mesh", help="mesh a scene's geometry with gmsh")
     scene_args(sp)
     sp.add_argument("-o", "--output", required=True, help="output .msh file")
@@ -155,6 +158,15 @@ def _check(args) -> int:
         ol = scene.outline
         print(f"# silo volume {ol.volume():.6g} m³, mass {ol.volume() * scene.material.density:.6g} kg, "
               f"fill height {ol.fill_height:g} m, wall length {ol.wall.length:.6g} m")
+        if args.cost:
+            from mpi4py import MPI
+
+            from silo_dolfinx.cost import describe, estimate
+            from silo_dolfinx.geometry.mesher import mesh_scene
+
+            ranks = tuple(sorted({1, 2} | ({args.ranks} if args.ranks else set())))
+            for line in describe(scene, estimate(scene, mesh_scene(scene, MPI.COMM_SELF)), ranks):
+                print(f"# {line}")
     return 0
 
 

@@ -90,3 +90,39 @@ def test_progress_eta_follows_the_recent_pace():
         writer.time.time = real
     eta = out.getvalue().strip().splitlines()[-1].split("ETA ")[1]
     assert eta.startswith("3m"), eta  # (30 − 11) s at 0.1 s/s = 190 s; since the start: 0m34s
+
+
+def test_check_cost_finds_the_solvers_stable_dt_and_the_steps_a_run_takes(shared_tmp, capsys, comm):
+    """`silo check --cost` estimates a scene's cost from its mesh before it runs. Its Δt is the
+    solver's own at rest (the same kernel over every cell: equal to round-off, and the same cell),
+    and its steps are those a short K0 run takes: at rest Δt does not move, and in 0.2 s of
+    discharge it falls by a few per cent at most (the estimate is a lower bound; 10 % allowed)."""
+    from mpi4py import MPI
+
+    from silo_dolfinx.cost import estimate
+    from silo_dolfinx.geometry.mesher import mesh_scene
+    from silo_dolfinx.scene import load_scene
+    from silo_dolfinx.simulation import build_model, run
+
+    sets = ['fill.method="k0"', "store.duration=0.1", "discharge.duration=0.2", "geometry.element_size=0.06",
+            "output.field_interval=0"]
+    scene = load_scene(SCENES / "hopper_ch4.toml", sets)
+    cost = estimate(scene, mesh_scene(scene, MPI.COMM_SELF))
+    solver = build_model(scene, comm).solver
+    assert abs(cost.dt - solver.dt_crit) < 1e-12 * solver.dt_crit
+    where = solver.limiting_cell()
+    assert abs(cost.where[0] - where["r"]) < 1e-9 and abs(cost.where[1] - where["z"]) < 1e-9
+    summary = run(scene, shared_tmp / "cost", comm, progress_every=1e9)
+    estimated = sum(cost.steps.values())
+    assert estimated <= summary["steps"] <= 1.1 * estimated, (estimated, summary["steps"])
+
+    capsys.readouterr()
+    assert main(["check", str(SCENES / "first_silo.toml"), "--cost", "--ranks", "4"]) == 0
+    out = capsys.readouterr().out
+    if comm.rank == 0:  # a structured hopper mesh: its outlet cells set Δt, and the user is told why
+        assert "# cost: 480 cells" in out and "on 4 ranks" in out
+        assert "(0.12 × element_size)" in out and 'geometry.mesh = "unstructured"' in out
+    assert main(["check", str(SCENES / "hopper_ch4.toml"), "--cost"]) == 0
+    out = capsys.readouterr().out
+    if comm.rank == 0:  # unstructured: its smallest cell is 0.59 of the element size, nothing to say
+        assert "# cost: 7,814 cells" in out and "every step pays for it" not in out

@@ -9,8 +9,9 @@ ch. 3 mesh, `hopper_ch3_ale.toml` at h 0.08, whose outlet arches from K0 on the 
 benchmarks/accuracy_cost.py) started from a K0 state and discharged freely for ``--discharge``
 s. A Lagrangian mesh of it tangles within 0.07 s, so the "ALE" row's Lagrangian step is the
 all-on run's wall-clock less ALE's own timers (smoothing, remap, rebuild). "All on" is the most expensive scene:
-non-coaxial plasticity, eq. 7-1 wall friction, bulk viscosity, ALE every 10 steps with 120
-tracers, wall histories at 200 Hz and field output every 0.1 s. Each row switches one of them
+non-coaxial plasticity with recompaction, eq. 7-1 wall friction, bulk viscosity, ALE every 10
+steps with the surface slump (30°), the scene's re-meshing triggers and 120 tracers, wall and
+interior-point histories at 200 Hz and field output every 0.1 s. Each row switches one of them
 off (or to its cheaper setting) and reports the discharge stage's wall-clock per step (output
 included) and the effect's share of the all-on step, 1 − t_without / t_all_on. A share near 0
 (within the run-to-run noise, the spread column) means an effect that costs nothing when off
@@ -35,7 +36,8 @@ MESH = ["geometry.element_size=0.04"]  # 1,076 cells: flows from K0 (the ch. 3 m
 ALL_ON = ['material.model="non_coaxial"', "material.noncoaxial_modulus=5.6e4", 'wall.friction="velocity_dependent"',
           "wall.mu_static=0.3", "wall.mu_kinetic=0.2", "wall.decay=2.0", "numerics.bulk_viscosity=[0.06, 1.2]",
           "ale.enabled=true", "ale.frequency=10", "ale.tracer_rows=10", "ale.tracer_columns=12",
-          "output.history_rate=200.0", "output.field_interval=0.1"]
+          "output.history_rate=200.0", "output.field_interval=0.1", "material.recompaction=true",
+          "ale.max_surface_slope=30.0"]
 
 # effect -> (what it becomes, the overrides that switch it)
 EFFECTS = {
@@ -48,7 +50,11 @@ EFFECTS = {
     # a Lagrangian mesh of this hopper tangles within 0.07 s (138 steps): its step is the all-on
     # run's without ALE's own timers (smoothing, remap, rebuild), not a run of its own
     "ALE": ("Lagrangian (all on less ALE's timers)", None),
+    "recompaction": ("off", ["material.recompaction=false"]),
+    "surface slump (30°)": ("off", ["ale.max_surface_slope=0.0"]),
+    "re-meshing triggers (the scene's)": ("off", ["ale.rezone_dt_fall=0.0", "ale.rezone_min_quality=0.0"]),
     "tracers (120)": ("none", ["ale.tracer_rows=0"]),
+    "interior points (5, the scene's)": ("none", ["output.points=[]"]),
     "histories at 200 Hz": ("at 10 Hz", ["output.history_rate=10.0"]),
     "wall stations (10)": ("none", ["output.stations=[]"]),
     "field output every 0.1 s": ("none", ["output.field_interval=0.0"]),

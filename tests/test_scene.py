@@ -306,10 +306,18 @@ def test_docs_match_schema():
     assert (ROOT / "docs" / "scene.md").read_text() == markdown()
 
 
-# Keys of [numerics] and [ale] that are not accuracy knobs, and why (every other key of those two
-# sections must be one: a new numerical key is either measured by benchmarks/accuracy_cost.py or
-# says here why it needs no table)
+# Keys of the sections that hold approximations - [geometry], [fill], [store], [numerics], [ale] -
+# that are not accuracy knobs, and why (every other key of those sections must be one: a new key
+# there is either measured by benchmarks/accuracy_cost.py or says here why it needs no table). The
+# other sections are the solid, the wall, the loads, the outlet's operation and what is recorded.
+SILO = "the silo itself, not an approximation of it"
 NOT_KNOBS = {
+    **{f"geometry.{k}": SILO for k in ("shape", "fill_height", "height", "top_radius", "outlet_radius", "radius",
+                                       "bin_height", "hopper_half_angle", "fillet_radius", "base_radius",
+                                       "half_angle", "wall")},
+    "geometry.mesh_file": "a mesh made elsewhere: its resolution is the user's (the mesh knobs do not apply)",
+    "geometry.max_cells": "a guard against a typo in element_size",
+    "fill.k0": "physics: the lateral pressure ratio of a geostatic start",
     "numerics.min_time_step_fraction": "a guard: where a run stops with a diagnosis, not how it approximates",
     "numerics.max_steps": "a guard against a scene that would never finish",
     "ale.max_surface_slope": "physics: the solid's angle of repose at its free surface, not an approximation",
@@ -332,8 +340,8 @@ def _accuracy_benchmark():
 def test_every_accuracy_knob_has_its_table_and_every_table_its_knob():
     """The user asked for a measured accuracy-vs-wall-clock table for every accuracy knob: the
     schema's map of knobs (whose docs name the command) and benchmarks/accuracy_cost.py's tables
-    are the same set, each table varies the key the map gives it, every key of [numerics] and [ale]
-    is a knob or says why not, and every row of every table is a scene the loader accepts (a
+    are the same set, each table varies the key the map gives it, every key of the sections that
+    hold approximations is a knob or says why not, and every row of every table is a scene the loader accepts (a
     table that cannot run is caught here, not after half an hour of benchmark)."""
     from silo_dolfinx.scene.schema import ACCURACY_KNOBS, SECTION_BY_NAME
 
@@ -349,7 +357,7 @@ def test_every_accuracy_knob_has_its_table_and_every_table_its_knob():
     for dotted in ACCURACY_KNOBS:
         section, name = dotted.split(".")
         assert name in SECTION_BY_NAME[section].all_key_names(), f"{dotted} is not a scene key"
-    for section in ("numerics", "ale"):
+    for section in ("geometry", "fill", "store", "numerics", "ale"):
         for name in SECTION_BY_NAME[section].all_key_names():
             dotted = f"{section}.{name}"
             assert (dotted in ACCURACY_KNOBS) != (dotted in NOT_KNOBS), f"{dotted}: a knob, or say why not"

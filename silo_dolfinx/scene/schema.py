@@ -489,7 +489,8 @@ REQUIRED_SECTIONS = ("geometry", "material", "wall")
 # and what it costs in time (not the silo, the solid or what is recorded). Each names its tables in
 # ``python benchmarks/accuracy_cost.py --knobs NAME`` (error against the most accurate setting, and
 # wall-clock); docs/performance.md quotes them. A test holds this map and that script's tables to
-# each other, and every key of [numerics] and [ale] to being a knob or saying why it is not.
+# each other, and every key of [geometry], [fill], [store], [numerics] and [ale] to being a knob or
+# saying why it is not.
 ACCURACY_KNOBS: dict[str, tuple[str, ...]] = {
     "geometry.element_size": ("mesh_size",),
     "geometry.mesh": ("mesh_type",),

@@ -46,9 +46,12 @@ class Cost:
         per_cells = self.seconds_per_rank_step / (ranks * (EFFICIENCY if ranks > 1 else 1.0))
         fixed = 1e-3 * FIXED_MS[ranks > 1]
         ale = ALE_SHARE_AT_10 * 10.0 / ale_frequency if ale_frequency else 0.0
-        return (1.0 + OUTPUT_SHARE) * sum(n * (fixed + per_cells * self.active[name]) * (1.0 + ale if name == "discharge"
-                                                                                        else 1.0)
-                                          for name, n in self.steps.items())
+
+        def step(stage: str) -> float:  # seconds of one step of a stage
+            seconds = fixed + per_cells * self.active[stage]
+            return seconds * (1.0 + ale) if stage == "discharge" else seconds
+
+        return (1.0 + OUTPUT_SHARE) * sum(n * step(stage) for stage, n in self.steps.items())
 
 
 def estimate(scene, sm) -> Cost:

@@ -209,6 +209,14 @@ def s0(z, p, z_ref, p_ref, ends: bool = False, z_min: float = -np.inf) -> float:
     return representative_deviation(np.interp(z_ref[keep], z, p), p_ref[keep])
 
 
+def overrides(problem: str, key: str, value, discharge: float, extra: tuple[str, ...] = ()) -> list[str]:
+    """The scene overrides of one row: the problem's, no field output, 100-Hz histories, the knob's
+    value, then ``extra``."""
+    text = str(value).lower() if not isinstance(value, list) else "[" + ", ".join(map(str, value)) + "]"
+    return [o.format(discharge=discharge) for o in PROBLEMS[problem].overrides] + [
+        "output.field_interval=0", "output.history_rate=100.0", f"{key}={text}", *extra]
+
+
 def run_case(problem: str, key: str, value, discharge: float, extra: tuple[str, ...] = ()) -> dict:
     from mpi4py import MPI
 
@@ -217,9 +225,7 @@ def run_case(problem: str, key: str, value, discharge: float, extra: tuple[str, 
     from silo_dolfinx.simulation import run
 
     pr = PROBLEMS[problem]
-    text = str(value).lower() if not isinstance(value, list) else "[" + ", ".join(map(str, value)) + "]"
-    sets = [o.format(discharge=discharge) for o in pr.overrides] + ["output.field_interval=0",
-                                                                     "output.history_rate=100.0", f"{key}={text}", *extra]
+    sets = overrides(problem, key, value, discharge, extra)
     if not pr.flow:  # 60 wall stations sampled as 0.05-s means: the last is the window before the instant
         top = load_scene(SCENES / pr.scene, sets).outline.fill_height
         sets += [f"output.stations=[{', '.join(f'{z:.4f}' for z in np.linspace(0.01, 0.99, 60) * top)}]",

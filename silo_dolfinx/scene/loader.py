@@ -294,11 +294,12 @@ def load_scene(
     if d["mode"] == "controlled" and d["ramp_time"] > d["duration"]:
         warnings.append(f"[discharge] ramp_time = {d['ramp_time']:g} s is longer than the discharge (duration = "
                         f"{d['duration']:g} s): the outlet reaches only part of velocity = {d['velocity']:g} m/s.")
-    warnings += _flat_bottom_discharge_advice(out)
-    return Scene(out, Path(source) if source else None, warnings)
+    scene = Scene(out, Path(source) if source else None, warnings)
+    warnings += _flat_bottom_discharge_advice(out, scene.outline)  # (the scene's outline, built once and kept)
+    return scene
 
 
-def _flat_bottom_discharge_advice(s: dict) -> list[str]:
+def _flat_bottom_discharge_advice(s: dict, outline) -> list[str]:
     """Before any step: a free discharge of a flat-bottomed silo on a plastic law wants the apex
     opening closed again (material.recompaction) and a free surface that slumps at about φ
     (ale.max_surface_slope). Without the first, the cells over the outlet open without end and
@@ -307,12 +308,10 @@ def _flat_bottom_discharge_advice(s: dict) -> list[str]:
     with both, 203-216 kg/s for the 12 s (docs/guide/your-silo.md, section 5). The ch. 8 silo
     (outlet 0.125 of radius 0.35 m) decays without it and pipes to its surface with it. Said
     before the run so that it costs nothing to act on; the run is not refused."""
-    from silo_dolfinx.geometry.shapes import outline_from_geometry
-
     m, d, a = s["material"], s["discharge"], s["ale"]
     if d["mode"] != "free" or d["duration"] <= 0.0 or "recompaction" not in m:
         return []
-    if outline_from_geometry(s["geometry"]).floor_pieces == 0:  # any wall with a floor at the outlet
+    if outline.floor_pieces == 0:  # any wall with a floor at the outlet
         return []
     fix = [k for k, off in (("material.recompaction = true", not m["recompaction"]),
                             (f"ale.max_surface_slope = {m['friction_angle']:g} (φ)",

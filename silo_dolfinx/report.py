@@ -8,6 +8,9 @@ Every figure uses the thesis' axes and shows the matching theory beside the simu
 * ``spectra.png`` — amplitude spectra at the stations, eq. 4-12's frequency marked;
 * ``discharge_pressures.png`` (+ ``discharge_pressures.csv``) — eq. 4-9 means over the first
   2 s and 10 s of the discharge against filling, and the overpressure (Figs. 4-6, 4-8);
+* ``design_pressures.png`` (+ ``design_pressures.csv``) — the discharge's mean over its first
+  10 s, its 99th percentile and largest wall pressure per station against EN 1991-4's filling
+  and fixed discharge loads;
 * ``wall_dynamics.png`` (+ ``wall_dynamics.csv`` for every station) — windowed spectra
   (Fig. 4-12) and mobilised friction (Figs. 4-13/4-14) at the station nearest h/4; the < 1 Hz
   RMS and frequency, the wave peak, the slip fraction per station;
@@ -101,7 +104,6 @@ class Report:
         cone = sc.cone
         phi = cone["phi_mohr_coulomb"] if cone else None  # Mohr-Coulomb φ of the simulated solid
         discharge = stage == "discharge"
-        hf = g.fill_height
         out = []
         if g.shape in ("flat_bottom", "column", "bin_hopper") and mu > 0 and not discharge:
             R = {"flat_bottom": "radius", "bin_hopper": "radius", "column": "base_radius"}[g.shape]
@@ -123,19 +125,65 @@ class Report:
                     m_mc = theory.mclean_m(mu, alpha)
                     sv = theory.hopper_vertical_stress(zz, m_mc, alpha, g.outlet_radius, g.height, gamma)
                     out.append((f"McLean (eq. 4-4): m = 2μ/tan α = {m_mc:.2f}, Walker's passive F {F:.2f}", F * sv))
-            if phi or not discharge:
-                pn, _ = theory.en1991_hopper(zz, mu, alpha, g.outlet_radius, g.height, gamma, discharge=discharge,
-                                             friction_angle=phi)
-                out.append(("EN 1991-4 " + ("discharge" if discharge else "filling"), pn))
-        if g.shape == "bin_hopper" and mu > 0 and not discharge:
-            hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
-            K = theory.janssen_k_en1991(phi) if phi else m.poisson_ratio / (1 - m.poisson_ratio)
-            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, K, gamma)
-            zz = np.clip(z, 0, hh)
-            pn_h, _ = theory.en1991_hopper(zz, mu, g.hopper_half_angle, g.outlet_radius, hh, gamma,
-                                           surcharge=float(pv_t))
-            out.append((f"EN 1991-4 hopper filling (bin load with K = {K:.2f})", np.where(z > hh, np.nan, pn_h)))
+        label, pn = self.en1991(z, stage)
+        if pn is not None and g.shape != "hopper" and not discharge:  # the vertical wall's is a Janssen K above
+            pn = np.where(z >= self._vertical_wall_base(z) - 1e-9 * g.fill_height, np.nan, pn)
+        if pn is not None and np.any(np.isfinite(pn)):
+            out.append((label, pn))
         return out
+
+    def en1991(self, z: np.ndarray, stage: str) -> tuple[str, np.ndarray | None]:
+        """EN 1991-4 (2006)'s symmetrical wall pressure p_n at heights z in this stage's state
+        (filling, or the fixed discharge load), with the scene's own solid: (label, p_n), NaN
+        where the code has no rule (a floor, a fillet above the cone's end); or (why not, None).
+        Vertical walls of slender silos: Janssen with K = 1.1 (1 − sin φ), × C_h 1.15 in
+        discharge (theory.en1991_vertical_wall); conical hoppers: F_f or F_e on eq. 4-2's
+        vertical stress (theory.en1991_hopper), under a bin with the bin's filling load at the
+        transition (C_b = 1)."""
+        sc = self.scene
+        if sc is None:
+            return "no scene.toml", None
+        g, w = sc.geometry, sc.wall
+        gamma = sc.material.density * sc.loads.gravity
+        mu = w.get("mu", w.get("mu_static", 0.0))
+        phi = sc.cone["phi_mohr_coulomb"] if sc.cone else None
+        discharge = stage == "discharge"
+        hf = g.fill_height
+        if g.shape not in ("hopper", "flat_bottom", "bin_hopper"):
+            return f"EN 1991-4: no rule for a `{g.shape}` wall", None
+        if not mu > 0:
+            return "EN 1991-4: a frictionless wall", None
+        if phi is None and (discharge or g.shape != "hopper"):
+            return "EN 1991-4: needs a Mohr-Coulomb friction angle (a frictional solid)", None
+        if discharge and math.atan(mu) >= math.radians(phi) and g.shape != "flat_bottom":
+            return "EN 1991-4: a hopper wall rougher than the solid (atan μ ≥ φ) has no F_e", None
+        z = np.asarray(z, float)
+        name = "EN 1991-4 " + ("discharge" if discharge else "filling")
+        if g.shape == "hopper":
+            pn, _ = theory.en1991_hopper(np.clip(z, 0, g.height), mu, hopper_half_angle(g), g.outlet_radius,
+                                         g.height, gamma, discharge=discharge, friction_angle=phi)
+            return name, pn
+        K = theory.janssen_k_en1991(phi)
+        base = 0.0 if g.shape == "flat_bottom" else self._vertical_wall_base(z)
+        slender = (hf - base) / (2 * g.radius)
+        p = np.full(z.shape, np.nan)
+        if slender >= theory.EN1991_SLENDER:
+            wall = z > base + 1e-9 * hf if g.shape == "flat_bottom" else z >= base - 1e-9 * hf
+            p[wall], _ = theory.en1991_vertical_wall(np.clip(hf - z[wall], 0, None), g.radius, mu, phi, gamma,
+                                                     slender, discharge)
+        elif g.shape == "flat_bottom":
+            return (f"EN 1991-4: h_c/d_c = {slender:.2f} < {theory.EN1991_SLENDER:g} (§5.3, intermediate and squat "
+                    "silos, is not implemented)"), None
+        label = f"{name} (K = {K:.2f}" + (", C_h 1.15" if discharge else "")
+        if g.shape == "bin_hopper":
+            hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
+            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, K, gamma)
+            cone = z <= hh
+            p[cone], _ = theory.en1991_hopper(np.clip(z[cone], 0, hh), mu, g.hopper_half_angle, g.outlet_radius, hh,
+                                              gamma, surcharge=float(pv_t), discharge=discharge, friction_angle=phi)
+            label += "; the hopper under the bin's load" + ("" if slender >= theory.EN1991_SLENDER else
+                                                            f"; the bin's h_c/d_c {slender:.2f} < 2: not drawn")
+        return label + ")", p
 
     # Janssen's K as the thesis gives it, for its own scenes only (by title)
     THESIS_K = {"flat_bottom_ch6": 0.38, "bin_hopper_ch7": 0.38}
@@ -376,6 +424,18 @@ class Report:
             return None
         return h, t0, t1
 
+    @staticmethod
+    def _pressure_and_ratio(a1, a2, ratio_label: str) -> None:
+        """Finish a two-panel profile figure: p_n against height, and a ratio against height
+        with 1 marked."""
+        a2.axvline(1.0, color="0.5", lw=0.8)
+        a1.set_xlabel("wall normal pressure p_n (kPa)")
+        a1.set_ylabel("height z (m)")
+        a2.set_xlabel(ratio_label)
+        for a in (a1, a2):
+            a.legend(fontsize=7)
+            a.grid(alpha=0.3)
+
     def discharge_pressures(self) -> None:
         """Eq. 4-9 means over the first 2 s and 10 s of the discharge against the end of
         filling (Figs. 4-6, 4-8): discharge_pressures.csv and a figure."""
@@ -401,13 +461,7 @@ class Report:
             span = min(w, t1 - t0)
             a1.plot(means[w][1] / 1e3, z, style, ms=4, label=f"discharge mean, first {span:g} s")
             a2.plot(ratio[w], z, style, ms=4, label=f"first {span:g} s")
-        a2.axvline(1.0, color="0.5", lw=0.8)
-        a1.set_xlabel("wall pressure p_n (kPa)")
-        a1.set_ylabel("height z (m)")
-        a2.set_xlabel("discharge / filling pressure")
-        for a in (a1, a2):
-            a.legend(fontsize=7)
-            a.grid(alpha=0.3)
+        self._pressure_and_ratio(a1, a2, "discharge / filling pressure")
         self._save(fig, "discharge_pressures.png", "Time-averaged discharge pressures (eq. 4-9) against filling, "
                    "and the overpressure (Figs. 4-6, 4-8).")
         r = ratio[10.0]
@@ -421,6 +475,80 @@ class Report:
             self.numbers.append((f"largest rise of the discharge mean over filling, first {min(10.0, t1 - t0):g} s",
                                  f"{rise[k] / 1e3:+.3g} kPa at {self._station(k, z[k])} (× {r[k]:.3g}; "
                                  f"the mean there {means[10.0][1][k] / 1e3:.3g} kPa)"))
+
+    MEAN_WINDOW = 10.0  # s after opening over which design_pressures takes the mean
+
+    def design_pressures(self) -> None:
+        """What the wall carried in the discharge - its mean over the first 10 s, its 99th
+        percentile and largest p_n over the whole discharge, per station - against EN 1991-4's symmetrical filling and fixed discharge
+        loads with the scene's own solid (:meth:`en1991`): design_pressures.csv, a figure, and
+        where the discharge exceeded the larger of the two."""
+        import matplotlib.pyplot as plt
+
+        from silo_dolfinx.output.schema import DESIGN_PRESSURES
+
+        d = self._discharge_history()
+        before = [st["name"] for st in self.summary.get("stages", []) if st["name"] != "discharge"]
+        rest = read_csv(self.folder / f"wall_profile_{before[-1]}.csv") if before else None
+        if d is None or rest is None:
+            self.missing.append("design pressures (needs a discharge, wall_history.csv and the wall profile "
+                                "at the opening)")
+            return
+        h, t0, t1 = d
+        st = np.asarray(h["station"], float)
+        stations = np.unique(st)
+        # the mean while the silo is still nearly full (the code's loads are the full silo's);
+        # the pulses over the whole discharge (the envelope)
+        mean_span = min(self.MEAN_WINDOW, t1 - t0)
+        z, p_mean = analysis.station_means(h, t0, t0 + mean_span)
+        p99, pmax, tmax = (np.full(stations.size, np.nan) for _ in range(3))
+        for k, s in enumerate(stations):
+            m = (st == s) & (h["t"] >= t0) & (h["t"] <= t1)
+            if np.any(m):
+                p = h["p_n"][m]
+                i = int(np.nanargmax(p))
+                p99[k], pmax[k], tmax[k] = np.nanpercentile(p, 99), p[i], h["t"][m][i] - t0
+        order = np.argsort(rest["z"])
+        p_open = np.interp(z, rest["z"][order], rest["p_n"][order])
+        en = {stage: self.en1991(z, stage) for stage in ("fill", "discharge")}
+        if en["discharge"][1] is None:
+            self.numbers.append(("EN 1991-4 discharge load", en["discharge"][0]))
+        p_ef, p_ed = (np.full(z.shape, np.nan) if p is None else p for _, p in en.values())
+        # a wall is designed for the larger of the code's two load cases (near a hopper's outlet
+        # F_e < F_f: there the filling load governs)
+        p_en = np.where(np.isnan(p_ed), np.nan, np.fmax(p_ef, p_ed))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = {k: np.where(p_en > 0, v / p_en, np.nan) for k, v in (("mean", p_mean), ("99", p99), ("max", pmax))}
+        self._table(DESIGN_PRESSURES, [[k, z[k], p_open[k], p_ef[k], p_ed[k], p_en[k], p_mean[k], p99[k], pmax[k],
+                                        tmax[k], ratio["mean"][k], ratio["99"][k], ratio["max"][k]]
+                                       for k in range(z.size)])
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 5.5), sharey=True)
+        a1.plot(p_open / 1e3, z, "k-", lw=1, label=f"at the opening (end of {before[-1]})")
+        a1.plot(p_mean / 1e3, z, "bo-", ms=4, lw=1, label=f"discharge mean, first {mean_span:.3g} s")
+        a1.plot(p99 / 1e3, z, "^-", color="darkorange", ms=4, lw=1, label="discharge, 99th percentile")
+        a1.plot(pmax / 1e3, z, "rx", ms=6, label="discharge, largest")
+        zz = np.linspace(np.nanmin(z), np.nanmax(z), 200)  # the code's loads as curves
+        for stage, style in (("fill", "--"), ("discharge", "-.")):
+            label, p = self.en1991(zz, stage)
+            if p is not None:
+                a1.plot(p / 1e3, zz, style, color="0.3", lw=1.2, label=label)
+        for k, label, fmt, colour in (("mean", "mean", "o-", "b"), ("99", "99th percentile", "^-", "darkorange"),
+                                      ("max", "largest", "x", "r")):
+            a2.plot(ratio[k], z, fmt, color=colour, ms=4, label=label)
+        self._pressure_and_ratio(a1, a2, "over EN 1991-4's load (the larger of filling and discharge)")
+        fig.suptitle(f"{self._title()} — the discharge against EN 1991-4 (the scene's own solid, no property factors)")
+        self._save(fig, "design_pressures.png", "What the wall carried over the discharge (mean, 99th percentile, "
+                   "largest) against EN 1991-4's filling and fixed discharge loads with the scene's solid.")
+        for k, what in (("mean", f"the discharge mean (first {mean_span:.3g} s)"), ("99", "the discharge's 99th percentile"),
+                        ("max", "the largest discharge pressure")):
+            r = ratio[k]
+            if not np.any(np.isfinite(r)):
+                continue
+            i = int(np.nanargmax(r))
+            when = f", {tmax[i]:.3g} s after the opening" if k == "max" else ""
+            self.numbers.append((f"{what} over EN 1991-4's load (the larger of filling and discharge)",
+                                 f"largest × {r[i]:.3g} at {self._station(i, z[i])}{when}; above it at "
+                                 f"{int(np.sum(r > 1))}/{int(np.sum(np.isfinite(r)))} stations"))
 
     START_UP = 2.0  # s after opening left out of the dynamics (the thesis' flow is steady after ≈ 2 s)
 
@@ -950,6 +1078,7 @@ class Report:
 
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,
+                     self.design_pressures,
                      self.wall_dynamics, self.rarefaction, self.outlet, self.flow_channel,
                      self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields,
                      *([self.movie] if self.with_movie else [])):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from conftest import SCENES
 
+from silo_dolfinx import theory
 from silo_dolfinx.cli import main
 from silo_dolfinx.output import read_csv
 from silo_dolfinx.report import make_report
@@ -390,3 +391,101 @@ def test_a_bin_hoppers_own_k_is_measured_on_its_vertical_wall(tmp_path):
     np.savez(d / "fields" / "snapshot_0000.npz", t=10.0, corners=np.array(corners),
              cell_stress_zz=np.full(len(corners), -10000.0))
     assert abs(Report(d).measured_k("fill", 0.67, R) - 0.43) < 1e-9
+
+
+def test_design_pressures_against_en1991(synthetic):
+    """design_pressures.csv on the synthetic hopper (p_n = 5000 + 800 sin 2π0.7t + 150 sin 2π5t
+    Pa at every station, the discharge 12-72 s) with one spike of 20 kPa at station 1 (z 0.66 m)
+    at t = 20 s: the EN 1991-4 columns are theory.en1991_hopper's for the scene's hopper (φ 30°,
+    μ 0.267, α 22.6°), filling and discharge; the mean over the first 10 s is the existing
+    discharge test's (the 5-Hz part in whole periods) plus 7.5 Pa of spike, within 0.1 %; the 99th
+    percentile is the signal's over the discharge's samples (the spike is one sample in 12,000);
+    the largest is the spike, 8 s after the opening; the pressure at the opening is the end of
+    storage's profile 9000 sin(πz/2.64) + 500 (linear between 40 nodes: within 1 %)."""
+    from silo_dolfinx.geometry.shapes import hopper_half_angle
+    from silo_dolfinx.report import Report
+
+    path = synthetic / "wall_history.csv"
+    lines = path.read_text().splitlines()
+    for i, line in enumerate(lines[1:], 1):
+        f = line.split(",")
+        if float(f[0]) == 20.0 and f[1] == "1":
+            f[5] = "20000.0"
+            lines[i] = ",".join(f)
+    path.write_text("\n".join(lines) + "\n")
+    r = Report(synthetic)
+    r.design_pressures()
+    assert not r.missing
+    d = read_csv(synthetic / "design_pressures.csv")
+    sc = load_scene(synthetic / "scene.toml")
+    g = sc.geometry
+    z = np.array([0.33, 0.66, 1.32])
+    assert d["z"] == pytest.approx(z)
+    gamma = sc.material.density * sc.loads.gravity
+    for col, dis in (("p_en_filling", False), ("p_en_discharge", True)):
+        exact = theory.en1991_hopper(z, 0.267, hopper_half_angle(g), 0.1, 2.64, gamma, discharge=dis, friction_angle=30.0)[0]
+        assert d[col] == pytest.approx(exact, rel=1e-9)
+    w = 2 * math.pi * 0.7
+    mean = 5000.0 + 800.0 * (math.cos(w * 12.0) - math.cos(w * 22.0)) / (w * 10.0)  # over 12-22 s
+    assert d["p_mean"] == pytest.approx(mean + np.array([0.0, 7.5, 0.0]), rel=1e-3)  # the spike: 15 kPa × 5 ms / 10 s
+    t = np.arange(0.0, 72.0, 0.005)
+    t = t[t >= 12.0]
+    signal = 5000 + 800 * np.sin(2 * math.pi * 0.7 * t) + 150 * np.sin(2 * math.pi * 5.0 * t)
+    assert d["p_99"][[0, 2]] == pytest.approx(np.full(2, np.percentile(signal, 99)), rel=1e-9)
+    # the spike shifts station 1's 99th percentile by one order statistic (0.45 Pa apart there)
+    assert abs(d["p_99"][1] - np.percentile(signal, 99)) < 1.0
+    assert d["p_max"][1] == 20000.0 and d["t_max"][1] == pytest.approx(8.0)
+    assert d["p_max"][[0, 2]] == pytest.approx(np.full(2, signal.max()), rel=1e-12)
+    # the code's design load is the larger of its two cases (here filling near the outlet, F_e < F_f)
+    assert d["p_en"] == pytest.approx(np.maximum(d["p_en_filling"], d["p_en_discharge"]), rel=1e-12)
+    assert d["p_en_filling"][0] > d["p_en_discharge"][0]
+    assert d["max_over_en"] == pytest.approx(d["p_max"] / d["p_en"], rel=1e-12)
+    assert d["p_opening"] == pytest.approx(9000 * np.sin(np.pi * z / 2.64) + 500, rel=0.01)
+    numbers = dict(r.numbers)
+    top = d["max_over_en"][1]
+    assert numbers["the largest discharge pressure over EN 1991-4's load (the larger of filling and discharge)"].startswith(
+        f"largest × {top:.3g} at z = 0.66 m, 8 s after the opening; above it at")
+    assert (synthetic / "design_pressures.png").is_file()
+
+
+def test_en1991_loads_on_a_vertical_wall_and_where_the_code_has_none(tmp_path):
+    """The ch. 6 silo (R 0.35 m, fill 3.95 m: h_c/d_c 5.6, slender; φ 35°, μ 0.63): EN 1991-4's
+    discharge load on its wall is 1.15 × Janssen with K = 1.1 (1 − sin 35°), none on the floor
+    (z = 0); the same silo filled to 1 m (h_c/d_c 1.4) is intermediate, whose rules (§5.3) are
+    not implemented: said, no curve. The ch. 7 bin-hopper: the vertical wall slender, the cone
+    under the bin's filling load at the transition (F_e in discharge)."""
+    from silo_dolfinx.report import Report
+
+    def report(scene_file, overrides=()):
+        scene = load_scene(SCENES / scene_file, list(overrides))
+        d = tmp_path / f"s{len(list(tmp_path.iterdir()))}"
+        d.mkdir()
+        (d / "scene.toml").write_text(scene.to_toml())
+        return Report(d), scene
+
+    r, sc = report("flat_bottom_ch6.toml")
+    hf, R = sc.geometry.fill_height, sc.geometry.radius
+    mu = sc.wall["mu"]
+    z = np.array([0.0, 1.0, 2.0, 3.0])
+    label, p = r.en1991(z, "discharge")
+    K = 1.1 * (1 - math.sin(math.radians(35.0)))
+    jan = theory.janssen(hf - z[1:], R, mu, K, sc.material.density * sc.loads.gravity)[0]
+    assert np.isnan(p[0]) and p[1:] == pytest.approx(1.15 * jan, rel=1e-12)
+    assert label.startswith("EN 1991-4 discharge (K = 0.47, C_h 1.15")
+    r, _ = report("flat_bottom_ch6.toml", ["geometry.fill_height=1.0", "output.stations=[0.5]"])
+    label, p = r.en1991(z, "discharge")
+    assert p is None and "h_c/d_c = 1.43 < 2 (§5.3" in label
+    r, sc = report("bin_hopper_ch7_abrupt.toml")
+    g = sc.geometry
+    hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
+    z = np.array([0.2, hh - 0.05, hh + 0.5, 3.0])
+    _, p = r.en1991(z, "discharge")
+    gamma = sc.material.density * sc.loads.gravity
+    phi = sc.cone["phi_mohr_coulomb"]
+    K = theory.janssen_k_en1991(phi)
+    pv_t = theory.janssen(g.fill_height - hh, g.radius, sc.wall["mu"], K, gamma)[2]
+    cone = theory.en1991_hopper(z[:2], sc.wall["mu"], g.hopper_half_angle, g.outlet_radius, hh, gamma,
+                                surcharge=float(pv_t), discharge=True, friction_angle=phi)[0]
+    assert p[:2] == pytest.approx(cone, rel=1e-12)
+    assert p[2:] == pytest.approx(1.15 * theory.janssen(g.fill_height - z[2:], g.radius, sc.wall["mu"], K, gamma)[0],
+                                  rel=1e-12)

@@ -126,6 +126,25 @@ def test_en1991_filling_ratio_is_the_thesis_form():
     assert np.allclose(pn, F_thesis * sv, rtol=1e-13) and np.allclose(pt, mu * pn, rtol=1e-13)
 
 
+def test_en1991_vertical_wall_is_janssen_with_the_code_k_and_its_discharge_magnifiers():
+    """EN 1991-4 §5.2 on a slender silo (R 0.35 m, μ 0.63, φ 35°, γ 15 kN/m³): filling is Janssen
+    with K = 1.1 (1 − sin 35°) = 0.469, so at one Janssen depth z0 = R/(2Kμ) p_h = (1 − 1/e) γR/(2μ)
+    and deep down γR/(2μ) (K cancels); the fixed discharge load is C_h = 1.15 times p_h and
+    C_w = 1.10 times p_w. Below h_c/d_c = 2 the code's other rules apply: refused, naming them."""
+    R, mu, phi, g = 0.35, 0.63, 35.0, 15000.0
+    k = 1.1 * (1 - math.sin(math.radians(phi)))
+    z0 = R / (2 * k * mu)
+    depth = np.array([0.0, z0, 60 * z0])
+    ph, pw = theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=5.7)
+    top = g * R / (2 * mu)
+    assert ph == pytest.approx([0.0, (1 - math.exp(-1)) * top, top], rel=1e-12, abs=1e-9)
+    assert pw == pytest.approx(mu * ph, rel=1e-12)
+    phe, pwe = theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=5.7, discharge=True)
+    assert phe == pytest.approx(1.15 * ph, rel=1e-12) and pwe == pytest.approx(1.10 * pw, rel=1e-12)
+    with pytest.raises(ValueError, match=r"slenderness = 1.5: .*h_c/d_c ≥ 2 \(§5.3"):
+        theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=1.5)
+
+
 def test_dynamic_friction_eq_7_1():
     mu = theory.dynamic_friction(np.array([0.0, 0.08, 0.2, 1e3]), 0.67, 0.3, 2.0)
     assert mu[0] == 0.67 and abs(mu[-1] - 0.3) < 1e-12

@@ -124,6 +124,28 @@ DISCHARGE_PRESSURES = CsvFile("discharge_pressures.csv", "Written by `silo repor
     C("overpressure_2s", "-", "p_discharge_2s / p_fill"), C("overpressure_10s", "-", "p_discharge_10s / p_fill"),
 ))
 
+DESIGN_PRESSURES = CsvFile("design_pressures.csv", "Written by `silo report`: what the wall carried in the "
+                           "discharge against EN 1991-4 (2006)'s symmetrical loads with the scene's own solid (K = "
+                           "1.1 (1 − sin φ), its μ; no property factors a_K, a_μ; no patch load), per station. Empty "
+                           "EN columns: no rule there (a floor, a fillet, a silo of h_c/d_c < 2, a wall rougher than "
+                           "the solid under a hopper).", (
+    C("station", "-", "station index"), C("z", "m", "mean height of the station over the discharge"),
+    C("p_opening", "Pa", "wall pressure at the opening (the profile at the end of the stage before the discharge, "
+      "interpolated at z)"),
+    C("p_en_filling", "Pa", "EN 1991-4 filling load at z"),
+    C("p_en_discharge", "Pa", "EN 1991-4 fixed discharge load at z (vertical wall: C_h 1.15 × filling; hopper: F_e)"),
+    C("p_en", "Pa", "the larger of the two: the load the code designs the wall for (near a hopper's outlet F_e < "
+      "F_f and filling governs)"),
+    C("p_mean", "Pa", "mean p_n over the first 10 s after the opening (or the whole discharge if shorter), while "
+      "the silo is still nearly full: the code's loads are the full silo's"),
+    C("p_99", "Pa", "99th percentile of p_n over the discharge (the pulses, without the single highest samples)"),
+    C("p_max", "Pa", "largest p_n over the discharge (a history sample: the mean over its interval at "
+      "output.history_sampling = \"mean\")"),
+    C("t_max", "s", "when it occurred, after the opening"),
+    C("mean_over_en", "-", "p_mean / p_en"), C("p99_over_en", "-", "p_99 / p_en"),
+    C("max_over_en", "-", "p_max / p_en"),
+))
+
 WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what makes the discharge pressure pulse, "
                         "per station, over the discharge after its start-up (2 s, and 1 s after the station's "
                         "switch from the filled to the flowing state, whichever is later; all of it if the "
@@ -165,7 +187,7 @@ FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a disch
 ))
 
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,
-                              DISCHARGE_PRESSURES, WALL_DYNAMICS, RAREFACTION, FLOW_CHANNEL)
+                              DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, RAREFACTION, FLOW_CHANNEL)
 
 
 def for_file(filename: str) -> CsvFile | None:

@@ -170,14 +170,14 @@ class Report:
         if slender >= theory.EN1991_SLENDER:
             wall = z > base + 1e-9 * hf if g.shape == "flat_bottom" else z >= base - 1e-9 * hf
             p[wall], _ = theory.en1991_vertical_wall(np.clip(hf - z[wall], 0, None), g.radius, mu, phi, gamma,
-                                                     slender, discharge)
+                                                     slender, discharge, sc.loads.top_surcharge)
         elif g.shape == "flat_bottom":
             return (f"EN 1991-4: h_c/d_c = {slender:.2f} < {theory.EN1991_SLENDER:g} (§5.3, intermediate and squat "
                     "silos, is not implemented)"), None
         label = f"{name} (K = {K:.2f}" + (", C_h 1.15" if discharge else "")
         if g.shape == "bin_hopper":
             hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
-            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, K, gamma)
+            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, K, gamma, sc.loads.top_surcharge)
             cone = z <= hh
             p[cone], _ = theory.en1991_hopper(np.clip(z[cone], 0, hh), mu, g.hopper_half_angle, g.outlet_radius, hh,
                                               gamma, surcharge=float(pv_t), discharge=discharge, friction_angle=phi)

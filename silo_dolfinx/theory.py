@@ -516,7 +516,7 @@ EN1991_SLENDER = 2.0  # h_c/d_c from which EN 1991-4 (2006) §5.2 (slender silos
 
 
 def en1991_vertical_wall(depth, radius: float, wall_friction: float, friction_angle: float, unit_weight: float,
-                         slenderness: float, discharge: bool = False):
+                         slenderness: float, discharge: bool = False, surcharge: float = 0.0):
     """EN 1991-4 (2006) §5.2 symmetrical wall pressures on the vertical wall of a slender
     circular silo (h_c/d_c ≥ 2), Pa; returns (p_h, p_w).
 
@@ -525,13 +525,14 @@ def en1991_vertical_wall(depth, radius: float, wall_friction: float, friction_an
     p_we = C_w p_wf with C_h = 1.15, C_w = 1.10. The code's characteristic values come from
     its property factors a_K, a_μ (Annex E); here the solid's own values are used, as a
     simulation has them. The patch load, being unsymmetrical, has no axisymmetric
-    counterpart. Intermediate and squat silos (§5.3) have another filling profile: a
-    slenderness below 2 is refused."""
+    counterpart. A top surcharge q (Pa), which the code does not have, enters as in Janssen.
+    Intermediate and squat silos (§5.3) have another filling profile: a slenderness below 2
+    is refused."""
     if not slenderness >= EN1991_SLENDER:
         raise ValueError(f"slenderness = {slenderness!r}: EN 1991-4's slender-silo rules need h_c/d_c ≥ "
                          f"{EN1991_SLENDER:g} (§5.3, intermediate and squat silos, is not implemented)")
     k = janssen_k_en1991(friction_angle)
-    ph, pw, _ = janssen(depth, radius, wall_friction, k, unit_weight)
+    ph, pw, _ = janssen(depth, radius, wall_friction, k, unit_weight, surcharge)
     c_h, c_w = (1.15, 1.10) if discharge else (1.0, 1.0)
     return c_h * ph, c_w * pw
 

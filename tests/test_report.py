@@ -454,7 +454,7 @@ def test_en1991_loads_on_a_vertical_wall_and_where_the_code_has_none(tmp_path):
     """The ch. 6 silo (R 0.35 m, fill 3.95 m: h_c/d_c 5.6, slender; φ 35°, μ 0.63): EN 1991-4's
     discharge load on its wall is 1.15 × Janssen with K = 1.1 (1 − sin 35°), none on the floor
     (z = 0); the same silo filled to 1 m (h_c/d_c 1.4) is intermediate, whose rules (§5.3) are
-    not implemented: said, no curve. The ch. 7 bin-hopper: the vertical wall slender, the cone
+    not implemented: said, no curve; a top surcharge q enters as in Janssen. The ch. 7 bin-hopper: the vertical wall slender, the cone
     under the bin's filling load at the transition (F_e in discharge)."""
     from silo_dolfinx.report import Report
 
@@ -474,6 +474,11 @@ def test_en1991_loads_on_a_vertical_wall_and_where_the_code_has_none(tmp_path):
     jan = theory.janssen(hf - z[1:], R, mu, K, sc.material.density * sc.loads.gravity)[0]
     assert np.isnan(p[0]) and p[1:] == pytest.approx(1.15 * jan, rel=1e-12)
     assert label.startswith("EN 1991-4 discharge (K = 0.47, C_h 1.15")
+    # a top surcharge (the code has none) enters as in Janssen: K q at the surface, decaying
+    r, sc = report("flat_bottom_ch6.toml", ["loads.top_surcharge=2000"])
+    _, p = r.en1991(np.array([hf - 1e-9, 1.0]), "discharge")
+    jan = theory.janssen(np.array([1e-9, hf - 1.0]), R, mu, K, sc.material.density * sc.loads.gravity, 2000.0)[0]
+    assert p == pytest.approx(1.15 * jan, rel=1e-9) and p[0] == pytest.approx(1.15 * K * 2000.0, rel=1e-6)
     r, _ = report("flat_bottom_ch6.toml", ["geometry.fill_height=1.0", "output.stations=[0.5]"])
     label, p = r.en1991(z, "discharge")
     assert p is None and "h_c/d_c = 1.43 < 2 (§5.3" in label

@@ -267,11 +267,17 @@ def wall_mean(s, p, s_centre: float, half_width: float) -> float:
     return float(np.trapezoid(np.interp(ss, s, p), ss) / (b - a))
 
 
+def profile_at(z, z_profile, p_profile) -> np.ndarray:
+    """A wall profile p(z) (a wall_profile_<stage>.csv column, in wall order) interpolated
+    linearly at heights z."""
+    order = np.argsort(z_profile)
+    return np.interp(np.asarray(z, float), np.asarray(z_profile, float)[order], np.asarray(p_profile, float)[order])
+
+
 def overpressure(z, p_discharge, z_fill, p_fill) -> np.ndarray:
     """Discharge over filling pressure at heights z: the discharge mean divided by the
     end-of-fill profile interpolated there (NaN where the fill pressure is ~0)."""
-    order = np.argsort(z_fill)
-    pf = np.interp(np.asarray(z, float), np.asarray(z_fill, float)[order], np.asarray(p_fill, float)[order])
+    pf = profile_at(z, z_fill, p_fill)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(pf > 1e-9 * np.max(np.abs(pf)), np.asarray(p_discharge, float) / pf, np.nan)
 

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from silo_dolfinx import analysis, theory
-from silo_dolfinx.geometry.shapes import hopper_half_angle
+from silo_dolfinx.geometry.shapes import bin_hopper_cone_height, hopper_half_angle
 from silo_dolfinx.output.reader import read_csv, read_summary
 
 
@@ -176,7 +176,7 @@ class Report:
                     "silos, is not implemented)"), None
         label = f"{name} (K = {K:.2f}" + (", C_h 1.15" if discharge else "")
         if g.shape == "bin_hopper":
-            hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
+            hh = bin_hopper_cone_height(g)
             _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, K, gamma, sc.loads.top_surcharge)
             cone = z <= hh
             p[cone], _ = theory.en1991_hopper(np.clip(z[cone], 0, hh), mu, g.hopper_half_angle, g.outlet_radius, hh,
@@ -451,7 +451,7 @@ class Report:
         h, t0, t1 = d
         means = {w: analysis.station_means(h, t0, min(t0 + w, t1)) for w in (2.0, 10.0)}
         z = means[2.0][0]
-        p_fill = np.interp(z, *(a[np.argsort(fill["z"])] for a in (fill["z"], fill["p_n"])))
+        p_fill = analysis.profile_at(z, fill["z"], fill["p_n"])
         ratio = {w: analysis.overpressure(z, means[w][1], fill["z"], fill["p_n"]) for w in means}
         self._table(DISCHARGE_PRESSURES, [[k, z[k], p_fill[k], means[2.0][1][k], means[10.0][1][k], ratio[2.0][k],
                                            ratio[10.0][k]] for k in range(z.size)])
@@ -480,9 +480,10 @@ class Report:
 
     def design_pressures(self) -> None:
         """What the wall carried in the discharge - its mean over the first 10 s, its 99th
-        percentile and largest p_n over the whole discharge, per station - against EN 1991-4's symmetrical filling and fixed discharge
-        loads with the scene's own solid (:meth:`en1991`): design_pressures.csv, a figure, and
-        where the discharge exceeded the larger of the two."""
+        percentile and largest p_n over the whole discharge, per station - against EN 1991-4's
+        symmetrical filling and fixed discharge loads with the scene's own solid
+        (:meth:`en1991`): design_pressures.csv, a figure, and where the discharge exceeded the
+        larger of the two."""
         import matplotlib.pyplot as plt
 
         from silo_dolfinx.output.schema import DESIGN_PRESSURES
@@ -508,8 +509,7 @@ class Report:
                 p = h["p_n"][m]
                 i = int(np.nanargmax(p))
                 p99[k], pmax[k], tmax[k] = np.nanpercentile(p, 99), p[i], h["t"][m][i] - t0
-        order = np.argsort(rest["z"])
-        p_open = np.interp(z, rest["z"][order], rest["p_n"][order])
+        p_open = analysis.profile_at(z, rest["z"], rest["p_n"])
         en = {stage: self.en1991(z, stage) for stage in ("fill", "discharge")}
         if en["discharge"][1] is None:
             self.numbers.append(("EN 1991-4 discharge load", en["discharge"][0]))

@@ -180,6 +180,12 @@ def _flat_bottom(g):
     return [Segment((R0, 0.0), (R, 0.0)), Segment((R, 0.0), (R, H))], 1, np.array([[R, 0.0]])
 
 
+def bin_hopper_cone_height(g) -> float:
+    """Height of a ``shape = "bin_hopper"``'s cone from the outlet to where its wall meets the
+    bin's (the abrupt corner; a fillet rounds it off about this height) (m)."""
+    return (g["radius"] - g["outlet_radius"]) / math.tan(math.radians(g["hopper_half_angle"]))
+
+
 def _bin_hopper(g):
     R, Hb, alpha, R0, Rf = (g["radius"], g["bin_height"], g["hopper_half_angle"], g["outlet_radius"],
                             g["fillet_radius"])
@@ -187,7 +193,7 @@ def _bin_hopper(g):
         raise _GeometryProblem("outlet_radius", f"= {R0:g} m must be smaller than radius = {R:g} m. "
                                f"Fix: outlet_radius < {R:g}.")
     a = math.radians(alpha)
-    hh = (R - R0) / math.tan(a)
+    hh = bin_hopper_cone_height(g)
     corner = (R, hh)
     top = (R, hh + Hb)
     if Rf == 0.0:

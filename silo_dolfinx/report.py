@@ -136,10 +136,10 @@ class Report:
         """EN 1991-4 (2006)'s symmetrical wall pressure p_n at heights z in this stage's state
         (filling, or the fixed discharge load), with the scene's own solid: (label, p_n), NaN
         where the code has no rule (a floor, a fillet above the cone's end); or (why not, None).
-        Vertical walls of slender silos: Janssen with K = 1.1 (1 − sin φ), × C_h 1.15 in
-        discharge (theory.en1991_vertical_wall); conical hoppers: F_f or F_e on eq. 4-2's
-        vertical stress (theory.en1991_hopper), under a bin with the bin's filling load at the
-        transition (C_b = 1)."""
+        Vertical walls: K = 1.1 (1 − sin φ), Janssen in slender silos and §5.3's profile in
+        squat and intermediate ones, × C_h in discharge (theory.en1991_vertical_wall); conical
+        hoppers: F_f or F_e on eq. 4-2's vertical stress (theory.en1991_hopper), under a bin
+        with the bin's filling load at the transition (C_b = 1)."""
         sc = self.scene
         if sc is None:
             return "no scene.toml", None
@@ -167,22 +167,25 @@ class Report:
         base = 0.0 if g.shape == "flat_bottom" else self._vertical_wall_base(z)
         slender = (hf - base) / (2 * g.radius)
         p = np.full(z.shape, np.nan)
-        if slender >= theory.EN1991_SLENDER:
-            wall = z > base + 1e-9 * hf if g.shape == "flat_bottom" else z >= base - 1e-9 * hf
-            p[wall], _ = theory.en1991_vertical_wall(np.clip(hf - z[wall], 0, None), g.radius, mu, phi, gamma,
-                                                     slender, discharge, sc.loads.top_surcharge)
-        elif g.shape == "flat_bottom":
-            return (f"EN 1991-4: h_c/d_c = {slender:.2f} < {theory.EN1991_SLENDER:g} (§5.3, intermediate and squat "
-                    "silos, is not implemented)"), None
-        label = f"{name} (K = {K:.2f}" + (", C_h 1.15" if discharge else "")
+        wall = z > base + 1e-9 * hf if g.shape == "flat_bottom" else z >= base - 1e-9 * hf
+
+        def code(depth, discharge):
+            return theory.en1991_vertical_wall(np.clip(depth, 0, None), g.radius, mu, phi, gamma, slender, discharge,
+                                               sc.loads.top_surcharge, flat_bottom=g.shape == "flat_bottom")
+        try:
+            p[wall], _, _ = code(hf - z[wall], discharge)
+        except ValueError as err:  # a retaining silo, a surcharged squat one: no rule
+            return f"EN 1991-4: {err}", None
+        c_h = theory.en1991_discharge_factors(slender)[0]
+        label = f"{name} (K = {K:.2f}" + (f", C_h {c_h:.3g}" if discharge else "") + (
+            "" if slender >= theory.EN1991_SLENDER else f"; h_c/d_c {slender:.2f}: §5.3's profile, φ_r = φ")
         if g.shape == "bin_hopper":
             hh = bin_hopper_cone_height(g)
-            _, _, pv_t = theory.janssen(max(hf - hh, 0.0), g.radius, mu, K, gamma, sc.loads.top_surcharge)
+            pv_t = float(code(hf - hh, False)[2])  # the bin's filling load at the cone's top
             cone = z <= hh
             p[cone], _ = theory.en1991_hopper(np.clip(z[cone], 0, hh), mu, g.hopper_half_angle, g.outlet_radius, hh,
-                                              gamma, surcharge=float(pv_t), discharge=discharge, friction_angle=phi)
-            label += "; the hopper under the bin's load" + ("" if slender >= theory.EN1991_SLENDER else
-                                                            f"; the bin's h_c/d_c {slender:.2f} < 2: not drawn")
+                                              gamma, surcharge=pv_t, discharge=discharge, friction_angle=phi)
+            label += "; the hopper under the bin's load"
         return label + ")", p
 
     # Janssen's K as the thesis gives it, for its own scenes only (by title)

@@ -513,28 +513,86 @@ def janssen_k_en1991(friction_angle: float) -> float:
 
 
 EN1991_SLENDER = 2.0  # h_c/d_c from which EN 1991-4 (2006) §5.2 (slender silos) applies
+EN1991_SQUAT = 1.0  # h_c/d_c up to which a silo is squat (§5.3: no discharge magnifier); intermediate above
+EN1991_RETAINING = 0.4  # h_c/d_c up to which a flat-bottomed silo is a retaining silo (§5.4)
+
+
+def en1991_discharge_factors(slenderness: float) -> tuple[float, float]:
+    """EN 1991-4 (2006)'s discharge magnifiers (C_h, C_w) of the symmetrical wall load against
+    slenderness h_c/d_c: slender silos (≥ 2, §5.2.2.2) 1.15 and 1.10; intermediate ones
+    (§5.3.2) 1 + 0.15 C_S and 1 + 0.10 C_S with C_S = h_c/d_c − 1, which joins them; squat
+    ones (≤ 1) 1 and 1 - their discharge load is their filling load."""
+    c_s = min(max(slenderness, EN1991_SQUAT), EN1991_SLENDER) - 1.0
+    return 1.0 + 0.15 * c_s, 1.0 + 0.10 * c_s
+
+
+def en1991_squat_wall(depth, radius: float, wall_friction: float, k: float, unit_weight: float,
+                      repose_angle: float, pile_depth: float = 0.0):
+    """EN 1991-4 (2006) §5.3.1.1 symmetrical filling pressures on the vertical wall of a squat or
+    intermediate circular silo (h_c/d_c < 2), Pa; returns (p_h, p_w, p_v). With the Janssen
+    depth z_o = R/(2Kμ), p_ho = γ K z_o = γ R/(2μ) and h_o the depth of the highest solid-wall
+    contact below the equivalent surface (``pile_depth``; R tan φ_r / 3 under a top pile at the
+    angle of repose, 0 for a levelled surface):
+
+        p_h = p_ho Y_R,  Y_R = 1 − ((z − h_o)/(z_o − h_o) + 1)^n,  n = −(1 + tan φ_r)(1 − h_o/z_o),
+        p_w = μ p_h,     p_v = γ z_V,  z_V = h_o − (z_o − h_o − (z + z_o − 2h_o)^{n+1}/(z_o − h_o)^n)/(n + 1),
+
+    zero wall pressure above h_o, where p_v = γ z. Y_R tends to 1 deep down (Janssen's
+    asymptote, K cancels) and p_v satisfies a slice's equilibrium, dp_v/dz = γ − 2μ p_h/R.
+    ``repose_angle`` φ_r in degrees."""
+    import numpy as np
+
+    _positive(radius=radius, wall_friction=wall_friction, k=k, unit_weight=unit_weight)
+    if not 0.0 <= repose_angle < 90.0:
+        raise ValueError(f"repose_angle = {repose_angle!r}: must be in [0, 90) degrees")
+    z = _nonneg_array("depth", depth)
+    z0 = janssen_depth(radius, wall_friction, k)
+    h0 = pile_depth
+    if not 0.0 <= h0 < z0:
+        raise ValueError(f"pile_depth = {h0!r}: must be in [0, z_o = {z0:.4g}) m")
+    n = -(1.0 + math.tan(math.radians(repose_angle))) * (1.0 - h0 / z0)
+    x = (np.maximum(z, h0) - h0) / (z0 - h0) + 1.0  # (z + z_o − 2h_o)/(z_o − h_o)
+    ph = unit_weight * k * z0 * (1.0 - x**n)
+    if abs(n + 1.0) < 1e-12:  # the limit n → −1
+        zv = h0 + (z0 - h0) * np.log(x)
+    else:
+        zv = h0 - (z0 - h0) * (1.0 - x ** (n + 1.0)) / (n + 1.0)
+    pv = unit_weight * np.where(z > h0, zv, z)
+    return ph, wall_friction * ph, pv
 
 
 def en1991_vertical_wall(depth, radius: float, wall_friction: float, friction_angle: float, unit_weight: float,
-                         slenderness: float, discharge: bool = False, surcharge: float = 0.0):
-    """EN 1991-4 (2006) §5.2 symmetrical wall pressures on the vertical wall of a slender
-    circular silo (h_c/d_c ≥ 2), Pa; returns (p_h, p_w).
+                         slenderness: float, discharge: bool = False, surcharge: float = 0.0,
+                         flat_bottom: bool = False):
+    """EN 1991-4 (2006) symmetrical pressures on the vertical wall of a circular silo, with K =
+    1.1 (1 − sin φ) and ``depth`` below the surface, levelled (the equivalent surface; h_o = 0),
+    Pa; returns (p_h, p_w, p_v).
 
-    Filling (§5.2.1.1): Janssen with K = 1.1 (1 − sin φ), z0 = R/(2Kμ), ``depth`` below the
-    equivalent surface. Discharge from below (§5.2.2.2, the fixed load): p_he = C_h p_hf,
-    p_we = C_w p_wf with C_h = 1.15, C_w = 1.10. The code's characteristic values come from
-    its property factors a_K, a_μ (Annex E); here the solid's own values are used, as a
-    simulation has them. The patch load, being unsymmetrical, has no axisymmetric
-    counterpart. A top surcharge q (Pa), which the code does not have, enters as in Janssen.
-    Intermediate and squat silos (§5.3) have another filling profile: a slenderness below 2
-    is refused."""
-    if not slenderness >= EN1991_SLENDER:
-        raise ValueError(f"slenderness = {slenderness!r}: EN 1991-4's slender-silo rules need h_c/d_c ≥ "
-                         f"{EN1991_SLENDER:g} (§5.3, intermediate and squat silos, is not implemented)")
+    Slender silos (h_c/d_c ≥ 2, §5.2.1.1): Janssen, z0 = R/(2Kμ). Squat and intermediate ones
+    (§5.3.1.1): :func:`en1991_squat_wall` with the angle of repose φ_r taken as φ (the code's
+    Annex E gives φ_r within a few degrees of φ for common solids; a simulation has no other).
+    Discharge from below (the fixed load, §5.2.2.2 / §5.3.2): p_he = C_h p_hf, p_we = C_w p_wf
+    (:func:`en1991_discharge_factors`); p_v is the filling one. The code's characteristic values
+    come from its property factors a_K, a_μ (Annex E); here the solid's own values are used, as
+    a simulation has them. The patch load, being unsymmetrical, has no axisymmetric
+    counterpart. A top surcharge q (Pa), which the code does not have, enters slender silos as
+    in Janssen and is refused for §5.3, whose profile has no such term. A flat-bottomed silo at
+    h_c/d_c ≤ 0.4 is a retaining silo (§5.4, not implemented): refused."""
+    if not slenderness > 0:
+        raise ValueError(f"slenderness = {slenderness!r}: must be > 0")
+    if flat_bottom and slenderness <= EN1991_RETAINING:
+        raise ValueError(f"slenderness = {slenderness!r}: a flat-bottomed silo with h_c/d_c ≤ {EN1991_RETAINING:g} "
+                         "is a retaining silo (§5.4, not implemented)")
     k = janssen_k_en1991(friction_angle)
-    ph, pw, _ = janssen(depth, radius, wall_friction, k, unit_weight, surcharge)
-    c_h, c_w = (1.15, 1.10) if discharge else (1.0, 1.0)
-    return c_h * ph, c_w * pw
+    if slenderness >= EN1991_SLENDER:
+        ph, pw, pv = janssen(depth, radius, wall_friction, k, unit_weight, surcharge)
+    elif surcharge:
+        raise ValueError(f"surcharge = {surcharge!r}: EN 1991-4's squat and intermediate profile (§5.3, "
+                         f"h_c/d_c = {slenderness:.3g}) has no top surcharge")
+    else:
+        ph, pw, pv = en1991_squat_wall(depth, radius, wall_friction, k, unit_weight, friction_angle)
+    c_h, c_w = en1991_discharge_factors(slenderness) if discharge else (1.0, 1.0)
+    return c_h * ph, c_w * pw, pv
 
 
 def wall_yield_k(friction_angle: float, wall_friction: float) -> float:

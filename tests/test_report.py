@@ -453,9 +453,12 @@ def test_design_pressures_against_en1991(synthetic):
 def test_en1991_loads_on_a_vertical_wall_and_where_the_code_has_none(tmp_path):
     """The ch. 6 silo (R 0.35 m, fill 3.95 m: h_c/d_c 5.6, slender; φ 35°, μ 0.63): EN 1991-4's
     discharge load on its wall is 1.15 × Janssen with K = 1.1 (1 − sin 35°), none on the floor
-    (z = 0); the same silo filled to 1 m (h_c/d_c 1.4) is intermediate, whose rules (§5.3) are
-    not implemented: said, no curve; a top surcharge q enters as in Janssen. The ch. 7 bin-hopper: the vertical wall slender, the cone
-    under the bin's filling load at the transition (F_e in discharge)."""
+    (z = 0); the same silo filled to 1 m (h_c/d_c 1.43) is intermediate: §5.3's profile with
+    φ_r = φ, × C_h = 1 + 0.15 × 0.43 in discharge; filled to 0.25 m (0.36) it is a retaining
+    silo (§5.4, not implemented): said, no curve; a top surcharge q enters a slender silo as in
+    Janssen and has no place in §5.3 (said, no curve). The ch. 7 bin-hopper: the vertical wall
+    slender, the cone under the bin's filling load at the transition (F_e in discharge); with a
+    1-m bin (h_c/d_c 1.43) both come from §5.3's profile."""
     from silo_dolfinx.report import Report
 
     def report(scene_file, overrides=()):
@@ -479,9 +482,16 @@ def test_en1991_loads_on_a_vertical_wall_and_where_the_code_has_none(tmp_path):
     _, p = r.en1991(np.array([hf - 1e-9, 1.0]), "discharge")
     jan = theory.janssen(np.array([1e-9, hf - 1.0]), R, mu, K, sc.material.density * sc.loads.gravity, 2000.0)[0]
     assert p == pytest.approx(1.15 * jan, rel=1e-9) and p[0] == pytest.approx(1.15 * K * 2000.0, rel=1e-6)
-    r, _ = report("flat_bottom_ch6.toml", ["geometry.fill_height=1.0", "output.stations=[0.5]"])
-    label, p = r.en1991(z, "discharge")
-    assert p is None and "h_c/d_c = 1.43 < 2 (§5.3" in label
+    r, sc = report("flat_bottom_ch6.toml", ["geometry.fill_height=1.0", "output.stations=[0.5]"])
+    label, p = r.en1991(np.array([0.0, 0.5, 0.9]), "discharge")
+    s = 1.0 / (2 * R)
+    squat = theory.en1991_squat_wall(np.array([0.5, 0.1]), R, mu, K, sc.material.density * sc.loads.gravity, 35.0)[0]
+    assert np.isnan(p[0]) and p[1:] == pytest.approx((1 + 0.15 * (s - 1)) * squat, rel=1e-12)
+    assert label == "EN 1991-4 discharge (K = 0.47, C_h 1.06; h_c/d_c 1.43: §5.3's profile, φ_r = φ)"
+    for sets, why in ((["geometry.fill_height=0.25"], "retaining silo (§5.4, not implemented)"),
+                      (["geometry.fill_height=1.0", "loads.top_surcharge=500"], "(§5.3, h_c/d_c = 1.43) has no top")):
+        label, p = report("flat_bottom_ch6.toml", sets + ["output.stations=[0.1]"])[0].en1991(z, "fill")
+        assert p is None and why in label
     r, sc = report("bin_hopper_ch7_abrupt.toml")
     g = sc.geometry
     hh = (g.radius - g.outlet_radius) / math.tan(math.radians(g.hopper_half_angle))
@@ -496,3 +506,10 @@ def test_en1991_loads_on_a_vertical_wall_and_where_the_code_has_none(tmp_path):
     assert p[:2] == pytest.approx(cone, rel=1e-12)
     assert p[2:] == pytest.approx(1.15 * theory.janssen(g.fill_height - z[2:], g.radius, sc.wall["mu"], K, gamma)[0],
                                   rel=1e-12)
+    r, sc = report("bin_hopper_ch7_abrupt.toml", [f"geometry.fill_height={hh + 1.0}", "output.stations=[0.2]"])
+    _, p = r.en1991(z, "fill")
+    bin_ = theory.en1991_squat_wall(np.array([1.0, 0.5]), g.radius, sc.wall["mu"], K, gamma, phi)
+    cone = theory.en1991_hopper(z[:2], sc.wall["mu"], g.hopper_half_angle, g.outlet_radius, hh, gamma,
+                                surcharge=float(bin_[2][0]))[0]
+    assert p[:2] == pytest.approx(cone, rel=1e-12) and p[2] == pytest.approx(bin_[0][1], rel=1e-12)
+    assert p[3] == 0.0  # above the fill

@@ -130,19 +130,65 @@ def test_en1991_vertical_wall_is_janssen_with_the_code_k_and_its_discharge_magni
     """EN 1991-4 §5.2 on a slender silo (R 0.35 m, μ 0.63, φ 35°, γ 15 kN/m³): filling is Janssen
     with K = 1.1 (1 − sin 35°) = 0.469, so at one Janssen depth z0 = R/(2Kμ) p_h = (1 − 1/e) γR/(2μ)
     and deep down γR/(2μ) (K cancels); the fixed discharge load is C_h = 1.15 times p_h and
-    C_w = 1.10 times p_w. Below h_c/d_c = 2 the code's other rules apply: refused, naming them."""
+    C_w = 1.10 times p_w. A flat-bottomed silo at h_c/d_c ≤ 0.4 is a retaining silo (§5.4), and
+    §5.3's profile has no top surcharge: both refused, naming why."""
     R, mu, phi, g = 0.35, 0.63, 35.0, 15000.0
     k = 1.1 * (1 - math.sin(math.radians(phi)))
     z0 = R / (2 * k * mu)
     depth = np.array([0.0, z0, 60 * z0])
-    ph, pw = theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=5.7)
+    ph, pw, pv = theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=5.7)
     top = g * R / (2 * mu)
     assert ph == pytest.approx([0.0, (1 - math.exp(-1)) * top, top], rel=1e-12, abs=1e-9)
-    assert pw == pytest.approx(mu * ph, rel=1e-12)
-    phe, pwe = theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=5.7, discharge=True)
+    assert pw == pytest.approx(mu * ph, rel=1e-12) and pv == pytest.approx(ph / k, rel=1e-12)
+    phe, pwe, pve = theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=5.7, discharge=True)
     assert phe == pytest.approx(1.15 * ph, rel=1e-12) and pwe == pytest.approx(1.10 * pw, rel=1e-12)
-    with pytest.raises(ValueError, match=r"slenderness = 1.5: .*h_c/d_c ≥ 2 \(§5.3"):
-        theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=1.5)
+    assert pve == pytest.approx(pv, rel=1e-12)
+    with pytest.raises(ValueError, match=r"slenderness = 0.3: .*retaining silo \(§5.4"):
+        theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=0.3, flat_bottom=True)
+    with pytest.raises(ValueError, match=r"surcharge = 500.0: .*\(§5.3, h_c/d_c = 1.5\) has no top surcharge"):
+        theory.en1991_vertical_wall(depth, R, mu, phi, g, slenderness=1.5, surcharge=500.0)
+
+
+def test_en1991_squat_and_intermediate_walls_section_5_3():
+    """EN 1991-4 §5.3.1.1 (R 0.35 m, μ 0.63, φ 35° → K 0.469, γ 15 kN/m³), checked against what
+    the profile must satisfy rather than against itself: no wall pressure above the highest
+    wall contact h_o; at one z_o below a levelled surface p_h = (1 − 2^n) p_ho with n = −(1 +
+    tan φ_r); deep down Janssen's asymptote γR/(2μ) (algebraically: 1e8 z_o); p_v continuous at h_o and in equilibrium
+    with the wall's friction slice by slice, dp_v/dz = γ − 2μ p_h/R (central differences of a
+    smooth profile on 1e-5 z_o steps: round-off 1e-8 of γ, so 1e-6); the n = −1 limit (a flat
+    repose, h_o 0: the logarithm) joins its neighbours. Through the function the report uses
+    (φ_r = φ, h_o = 0), an intermediate silo's discharge load is C_h = 1 + 0.15 (h_c/d_c − 1)
+    times it, a squat one's equal to it; the magnifiers meet §5.2's 1.15/1.10 at h_c/d_c = 2."""
+    R, mu, phi, g = 0.35, 0.63, 35.0, 15000.0
+    k = theory.janssen_k_en1991(phi)
+    z0, top = R / (2 * k * mu), g * R / (2 * mu)
+    n = -(1 + math.tan(math.radians(phi)))
+    ph, pw, pv = theory.en1991_squat_wall(np.array([0.0, z0, 1e8 * z0]), R, mu, k, g, phi)
+    assert ph == pytest.approx([0.0, (1 - 2**n) * top, top], rel=1e-9, abs=1e-9)
+    assert pw == pytest.approx(mu * ph, rel=1e-12) and pv[0] == 0.0
+    for h0 in (0.0, 0.2 * z0):
+        z = np.linspace(h0 + 0.01 * z0, 4 * z0, 7)
+        dz = 1e-5 * z0
+        ph, _, _ = theory.en1991_squat_wall(z, R, mu, k, g, 30.0, pile_depth=h0)
+        up, lo = (theory.en1991_squat_wall(z + s, R, mu, k, g, 30.0, pile_depth=h0)[2] for s in (dz, -dz))
+        assert (up - lo) / (2 * dz) == pytest.approx(g - 2 * mu * ph / R, abs=1e-6 * g)
+    above = np.array([0.0, 0.1 * z0, 0.2 * z0 * (1 - 1e-12), 0.2 * z0 * (1 + 1e-9)])
+    ph, _, pv = theory.en1991_squat_wall(above, R, mu, k, g, 30.0, pile_depth=0.2 * z0)
+    assert np.all(ph[:3] == 0.0) and pv == pytest.approx(g * above, rel=1e-6)
+    z = np.array([0.3 * z0, 2 * z0])
+    flat = theory.en1991_squat_wall(z, R, mu, k, g, 0.0)
+    near = theory.en1991_squat_wall(z, R, mu, k, g, 1e-6)
+    assert flat[0] == pytest.approx(top * z / (z + z0), rel=1e-12)  # n = −1: p_h = p_ho z/(z + z_o)
+    assert flat[2] == pytest.approx(near[2], rel=1e-6) and flat[0] == pytest.approx(near[0], rel=1e-6)
+    depth = np.array([0.5, 1.0])
+    fill, _, _ = theory.en1991_squat_wall(depth, R, mu, k, g, phi)
+    for s, c_h in ((0.7, 1.0), (1.5, 1.075), (1.9, 1.135)):
+        assert theory.en1991_vertical_wall(depth, R, mu, phi, g, s)[0] == pytest.approx(fill, rel=1e-12)
+        assert theory.en1991_vertical_wall(depth, R, mu, phi, g, s, discharge=True)[0] == pytest.approx(
+            c_h * fill, rel=1e-12)
+    assert theory.en1991_discharge_factors(2.0) == pytest.approx((1.15, 1.10), rel=1e-12)
+    assert theory.en1991_discharge_factors(1.999999) == pytest.approx((1.15, 1.10), rel=1e-6)
+    assert theory.en1991_discharge_factors(0.5) == (1.0, 1.0) and theory.en1991_discharge_factors(9.0) == (1.15, 1.1)
 
 
 def test_dynamic_friction_eq_7_1():

@@ -127,7 +127,7 @@ DISCHARGE_PRESSURES = CsvFile("discharge_pressures.csv", "Written by `silo repor
 DESIGN_PRESSURES = CsvFile("design_pressures.csv", "Written by `silo report`: what the wall carried in the "
                            "discharge against EN 1991-4 (2006)'s symmetrical loads with the scene's own solid (K = "
                            "1.1 (1 − sin φ), its μ; no property factors a_K, a_μ; no patch load), per station. Empty "
-                           "EN columns: no rule there (a floor, a fillet, a silo of h_c/d_c < 2, a wall rougher than "
+                           "EN columns: no rule there (a floor, a fillet, a retaining silo (flat bottom, h_c/d_c ≤ 0.4), a surcharged silo below h_c/d_c 2, a wall rougher than "
                            "the solid under a hopper).", (
     C("station", "-", "station index"), C("z", "m", "mean height of the station over the discharge"),
     C("p_opening", "Pa", "wall pressure at the opening (the profile at the end of the stage before the discharge, "

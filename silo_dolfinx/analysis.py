@@ -205,6 +205,84 @@ def _split_low(t, x, t_start, t_end, cutoff):
     return tu, xu, low, inside
 
 
+@dataclass
+class PulseTravel:
+    """How the wall-pressure pulses above ``cutoff`` travel along the wall (:func:`pulse_travel`)."""
+
+    s_low: np.ndarray  # wall distance of each pair's lower station (m)
+    s_high: np.ndarray  # and of its upper one
+    lag: np.ndarray  # s: the upper station's pulses lag the lower one's by this (negative: they lead)
+    correlation: np.ndarray  # the normalised cross-correlation at that lag
+    frequency: float  # Hz: the pulses' dominant frequency (the stations' pooled spectrum above cutoff)
+    max_lag: float  # s: the lags searched, ± half a period of that frequency
+    min_correlation: float  # pairs at or above this carry the speed
+
+    @property
+    def tracked(self) -> np.ndarray:
+        return self.correlation >= self.min_correlation
+
+    @property
+    def speed(self) -> float:
+        """The pulses' speed along the wall (m/s, positive up it) over the tracked pairs: the
+        inverse of their median slowness lag/Δs (a pair in phase counts as slowness 0: a speed
+        beyond what the sampling resolves, inf); NaN when no pair is tracked."""
+        if not np.any(self.tracked):
+            return float("nan")
+        slowness = float(np.median(self.lag[self.tracked] / (self.s_high - self.s_low)[self.tracked]))
+        return float("inf") if slowness == 0.0 else 1.0 / slowness
+
+
+def pulse_travel(t, s, p, cutoff: float = LOW_CUTOFF, min_correlation: float = 0.5) -> PulseTravel:
+    """Whether and how fast the wall pressure's pulses above ``cutoff`` run along the wall.
+
+    ``t`` (n_t) uniform sample times, ``s`` (n) the stations' distances along the wall, ``p``
+    (n, n_t) their histories. Each history is detrended (linear) and its part below ``cutoff``
+    removed (the zero-phase filter of :func:`low_pass`); the pulses' dominant frequency f is the
+    peak of the stations' pooled Hann spectrum above ``cutoff``. For each pair of neighbouring
+    stations (sorted by s) the lag that maximises their normalised cross-correlation is searched
+    within ± 1/(2f) - half a period: a periodic train correlates again a period on, so a longer
+    search could not tell a wave running up from one running down - and refined between samples
+    by a parabola through the peak. A wave travelling up the wall at speed c shows as lags Δs/c
+    with a correlation near 1; a pulse felt everywhere at once (the whole fill moving as one, a
+    standing mode) as lags near 0; pulses that are local (slip-stick of one stretch of wall)
+    as correlations well below 1."""
+    t = np.asarray(t, float)
+    s = np.asarray(s, float)
+    p = np.asarray(p, float)
+    if p.ndim != 2 or p.shape != (s.size, t.size) or s.size < 2 or t.size < 16:
+        raise ValueError(f"p: expected (stations, samples) = ({s.size}, {t.size}) with ≥ 2 stations and ≥ 16 "
+                         f"samples, got {p.shape}")
+    from scipy import signal as sps
+
+    order = np.argsort(s)
+    s, p = s[order], p[order]
+    dt = (t[-1] - t[0]) / (t.size - 1)
+    x = sps.detrend(p, axis=1, type="linear")
+    x = np.array([row - low_pass(t, row, cutoff) for row in x])
+    f = np.fft.rfftfreq(t.size, dt)
+    power = np.sum(np.abs(np.fft.rfft(x * np.hanning(t.size), axis=1)) ** 2, axis=0)
+    above = f > cutoff
+    frequency = float(f[above][np.argmax(power[above])]) if np.any(above) else float("nan")
+    max_lag = 0.5 / frequency
+    m = max(1, int(max_lag / dt))
+    lags, corr = np.zeros(s.size - 1), np.zeros(s.size - 1)
+    for i in range(s.size - 1):
+        a, b = x[i], x[i + 1]
+        norm = np.sqrt(np.sum(a * a) * np.sum(b * b))
+        if norm == 0.0:
+            lags[i], corr[i] = np.nan, 0.0
+            continue
+        c = np.array([np.sum(a[: a.size - k] * b[k:]) if k >= 0 else np.sum(a[-k:] * b[: b.size + k])
+                      for k in range(-m, m + 1)]) / norm
+        j = int(np.argmax(c))
+        shift = 0.0
+        if 0 < j < c.size - 1:
+            den = c[j - 1] - 2 * c[j] + c[j + 1]
+            shift = 0.5 * (c[j - 1] - c[j + 1]) / den if den != 0 else 0.0
+        lags[i], corr[i] = (j - m + shift) * dt, c[j]
+    return PulseTravel(s[:-1], s[1:], lags, corr, frequency, max_lag, min_correlation)
+
+
 def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:
     """When a station's wall pressure has switched from the filled state to the flowing one: the
     first time after ``t_open`` that its part below ``cutoff`` (zero-phase 4th-order

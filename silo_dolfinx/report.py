@@ -14,6 +14,9 @@ Every figure uses the thesis' axes and shows the matching theory beside the simu
 * ``wall_dynamics.png`` (+ ``wall_dynamics.csv`` for every station) — windowed spectra
   (Fig. 4-12) and mobilised friction (Figs. 4-13/4-14) at the station nearest h/4; the < 1 Hz
   RMS and frequency, the wave peak, the slip fraction per station;
+* ``wall_spacetime.png`` (+ ``pulse_travel.csv``) — the pulses above 1 Hz against height and
+  time, and whether they run along the wall: their lag from station to station and its speed
+  against the solid's elastic waves;
 * ``outlet.png`` — outlet velocity and mass flow rate against Beverloo (eq. 4-6/4-8);
 * ``flow_channel.png`` — the flow-channel boundary (v_z = 0.001 × centreline, ch. 6.4.3);
 * ``mesh_quality.png`` — aspect ratio against top-surface drop (Fig. 3-18), scaled Jacobian;
@@ -169,12 +172,16 @@ class Report:
         p = np.full(z.shape, np.nan)
         wall = z > base + 1e-9 * hf if g.shape == "flat_bottom" else z >= base - 1e-9 * hf
 
+        if g.shape == "flat_bottom" and slender <= theory.EN1991_RETAINING:
+            return (f"EN 1991-4: h_c/d_c = {slender:.2f}: a flat-bottomed silo with h_c/d_c ≤ "
+                    f"{theory.EN1991_RETAINING:g} is a retaining silo (§5.4, not implemented)"), None
+
         def code(depth, discharge):
             return theory.en1991_vertical_wall(np.clip(depth, 0, None), g.radius, mu, phi, gamma, slender, discharge,
-                                               sc.loads.top_surcharge, flat_bottom=g.shape == "flat_bottom")
+                                               sc.loads.top_surcharge)
         try:
             p[wall], _, _ = code(hf - z[wall], discharge)
-        except ValueError as err:  # a retaining silo, a surcharged squat one: no rule
+        except ValueError as err:  # a surcharged squat or intermediate silo: no rule
             return f"EN 1991-4: {err}", None
         c_h = theory.en1991_discharge_factors(slender)[0]
         label = f"{name} (K = {K:.2f}" + (f", C_h {c_h:.3g}" if discharge else "") + (
@@ -655,6 +662,86 @@ class Report:
         self._save(fig, "wall_dynamics.png", f"At z = {e[1]:.2f} m: spectra of six consecutive windows (Fig. 4-12) "
                    "and the mobilised friction (Figs. 4-13/4-14).")
 
+    PULSE_WINDOW = 10.0  # s after the start-up over which pulse_travel follows the pulses
+    PULSE_MIN_LOAD = 0.05  # stations pressed by less than this fraction of the most pressed one are left out
+
+    def pulse_travel(self) -> None:
+        """Whether the discharge's pulses run along the wall, and how fast: per pair of
+        neighbouring stations the lag of the upper one's pulses above 1 Hz behind the lower
+        one's (:func:`analysis.pulse_travel`) over the first ``PULSE_WINDOW`` s after the
+        start-up (pulse_travel.csv), their speed against the solid's elastic wave speeds, and
+        a space-time picture of the pulses (wall_spacetime.png)."""
+        import matplotlib.pyplot as plt
+
+        from silo_dolfinx.output.schema import PULSE_TRAVEL
+
+        d = self._discharge_history()
+        if d is None:
+            self.missing.append("pulse travel (needs a discharge and wall_history.csv)")
+            return
+        h, t_open, t1 = d
+        t0 = self._settled(t_open, t1)
+        t, z, p = analysis.station_matrix(h, "station", "p_n")
+        s = analysis.station_matrix(h, "station", "s")[2][:, -1]
+        win = (t >= t0) & (t <= min(t1, t0 + self.PULSE_WINDOW))
+        mean = p[:, win].mean(axis=1) if win.any() else np.zeros(z.size)
+        keep = mean >= self.PULSE_MIN_LOAD * mean.max() if mean.size and mean.max() > 0 else np.zeros(z.size, bool)
+        order = np.argsort(s)
+        keep[order[1:]] &= np.diff(s[order]) > 0  # one of two stations at the same place
+        if win.sum() < 16 or keep.sum() < 2:
+            self.missing.append("pulse travel (fewer than two loaded stations or 16 samples after the start-up)")
+            return
+        t, z, s, p = t[win], z[keep], s[keep], p[keep][:, win]
+        r = analysis.pulse_travel(t, s, p)
+        z_of = dict(zip(s, z))
+        zl, zh = np.array([z_of[x] for x in r.s_low]), np.array([z_of[x] for x in r.s_high])
+        ds = r.s_high - r.s_low
+        with np.errstate(divide="ignore"):
+            speed = np.where(r.lag != 0, ds / np.where(r.lag != 0, r.lag, 1.0), np.inf)
+        self._table(PULSE_TRAVEL, [[zl[i], zh[i], ds[i], r.lag[i], r.correlation[i], speed[i]] for i in range(ds.size)])
+        m = self.scene.material if self.scene is not None else None
+        c_p = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density) if m is not None else np.nan
+        c_s = theory.shear_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density) if m is not None else np.nan
+        tracked = r.tracked
+        span = (f"{t0 - t_open:.3g}–{t[-1] - t_open:.3g} s after the opening, dominant {r.frequency:.3g} Hz")
+        if not tracked.any():
+            text = (f"no pair of neighbouring stations correlated ≥ {r.min_correlation:g}: the pulses are local "
+                    f"(slip-stick of a stretch of wall, chatter), not a wave along it ({span})")
+        else:
+            v = r.speed
+            where = f"z {zl[tracked].min():.2f}–{zh[tracked].max():.2f} m"
+            how = ("in phase (lags below a sample: a motion of the whole fill, or a standing mode)" if not np.isfinite(v)
+                   else f"{'up' if v > 0 else 'down'} the wall at {abs(v):.3g} m/s")
+            text = (f"{how} over {where} ({int(tracked.sum())} of {tracked.size} station pairs correlated ≥ "
+                    f"{r.min_correlation:g}, median {np.median(r.correlation[tracked]):.2f}); the solid's elastic "
+                    f"waves: √(M/ρ) {c_p:.3g} m/s, √(G/ρ) {c_s:.3g} m/s ({span})")
+        self.numbers.append(("the pulses above 1 Hz along the wall", text))
+        # the picture: the pulses (p_n less its part below 1 Hz) against height and time over a
+        # few periods, with the measured speed and the elastic waves' drawn from the lowest station
+        from scipy import signal as sps
+
+        show = t <= t[0] + min(8.0 / r.frequency, t[-1] - t[0]) if np.isfinite(r.frequency) else t <= t[-1]
+        x = sps.detrend(p, axis=1, type="linear")
+        x = np.array([row - analysis.low_pass(t, row) for row in x])[:, show]
+        fig, ax = plt.subplots(figsize=(10, 5))
+        lim = float(np.max(np.abs(x))) / 1e3 or 1.0
+        mesh = ax.pcolormesh(t[show] - t_open, z, x / 1e3, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
+        fig.colorbar(mesh, ax=ax, label="p_n above 1 Hz (kPa)")
+        ta = t[show][0] - t_open
+        dz_ds = (z.max() - z.min()) / (s.max() - s.min())  # the wall's rise per length along it
+        for speed_s, style, label in ((r.speed, "k-", "measured"), (c_p, "k--", "√(M/ρ)"), (c_s, "k:", "√(G/ρ)")):
+            if np.isfinite(speed_s) and speed_s != 0:
+                ax.plot([ta, ta + (s.max() - s.min()) / abs(speed_s)],
+                        [z.min(), z.max()] if speed_s > 0 else [z.max(), z.min()], style, lw=1.2,
+                        label=f"{label}: {abs(speed_s):.3g} m/s along the wall")
+        ax.set_ylim(z.min() - 0.02 * dz_ds, z.max() + 0.02 * dz_ds)
+        ax.set_xlabel("time after opening (s)")
+        ax.set_ylabel("station height z (m)")
+        ax.legend(fontsize=7, loc="upper right")
+        self._save(fig, "wall_spacetime.png", "The wall pressure's pulses (above 1 Hz) against height and time: a wave "
+                   "runs along the wall as slanted stripes (the lines: the measured speed and the solid's elastic "
+                   "waves), a motion of the whole fill as vertical ones, slip-stick as patches.")
+
     RISE = 0.01  # s a rarefaction front takes to pass a point (eq. 5-17's 5-ms pull and its smearing)
     SATURATED = 0.8  # σ⁺ / the pre-wave stress beyond which the wave is no longer small (rarefaction)
 
@@ -1085,7 +1172,7 @@ class Report:
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,
                      self.design_pressures,
-                     self.wall_dynamics, self.rarefaction, self.outlet, self.flow_channel,
+                     self.wall_dynamics, self.pulse_travel, self.rarefaction, self.outlet, self.flow_channel,
                      self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields,
                      *([self.movie] if self.with_movie else [])):
             try:

@@ -38,6 +38,13 @@ def confined_wave_speed(youngs_modulus: float, poisson_ratio: float, density: fl
     return math.sqrt(constrained_modulus(youngs_modulus, poisson_ratio) / density)
 
 
+def shear_wave_speed(youngs_modulus: float, poisson_ratio: float, density: float) -> float:
+    """Speed (m/s) of a shear wave, √(G/ρ) with G = E/(2(1+ν)); elastic, small amplitude."""
+    _positive(youngs_modulus=youngs_modulus, density=density)
+    _poisson(poisson_ratio)
+    return math.sqrt(youngs_modulus / (2.0 * (1.0 + poisson_ratio)) / density)
+
+
 def longitudinal_frequency(youngs_modulus: float, poisson_ratio: float, density: float, height: float) -> float:
     """Eq. 4-12: f_n = √(E(1−ν)/(ρ(1+ν)(1−2ν))) / (2 h_f)  (Hz), elastic bar with free ends.
 
@@ -562,8 +569,7 @@ def en1991_squat_wall(depth, radius: float, wall_friction: float, k: float, unit
 
 
 def en1991_vertical_wall(depth, radius: float, wall_friction: float, friction_angle: float, unit_weight: float,
-                         slenderness: float, discharge: bool = False, surcharge: float = 0.0,
-                         flat_bottom: bool = False):
+                         slenderness: float, discharge: bool = False, surcharge: float = 0.0):
     """EN 1991-4 (2006) symmetrical pressures on the vertical wall of a circular silo, with K =
     1.1 (1 − sin φ) and ``depth`` below the surface, levelled (the equivalent surface; h_o = 0),
     Pa; returns (p_h, p_w, p_v).
@@ -576,13 +582,10 @@ def en1991_vertical_wall(depth, radius: float, wall_friction: float, friction_an
     come from its property factors a_K, a_μ (Annex E); here the solid's own values are used, as
     a simulation has them. The patch load, being unsymmetrical, has no axisymmetric
     counterpart. A top surcharge q (Pa), which the code does not have, enters slender silos as
-    in Janssen and is refused for §5.3, whose profile has no such term. A flat-bottomed silo at
-    h_c/d_c ≤ 0.4 is a retaining silo (§5.4, not implemented): refused."""
+    in Janssen and is refused for §5.3, whose profile has no such term. (A flat-bottomed silo at
+    h_c/d_c ≤ ``EN1991_RETAINING`` is a retaining silo, §5.4, which this does not cover.)"""
     if not slenderness > 0:
         raise ValueError(f"slenderness = {slenderness!r}: must be > 0")
-    if flat_bottom and slenderness <= EN1991_RETAINING:
-        raise ValueError(f"slenderness = {slenderness!r}: a flat-bottomed silo with h_c/d_c ≤ {EN1991_RETAINING:g} "
-                         "is a retaining silo (§5.4, not implemented)")
     k = janssen_k_en1991(friction_angle)
     if slenderness >= EN1991_SLENDER:
         ph, pw, pv = janssen(depth, radius, wall_friction, k, unit_weight, surcharge)

@@ -127,13 +127,14 @@ DISCHARGE_PRESSURES = CsvFile("discharge_pressures.csv", "Written by `silo repor
 DESIGN_PRESSURES = CsvFile("design_pressures.csv", "Written by `silo report`: what the wall carried in the "
                            "discharge against EN 1991-4 (2006)'s symmetrical loads with the scene's own solid (K = "
                            "1.1 (1 − sin φ), its μ; no property factors a_K, a_μ; no patch load), per station. Empty "
-                           "EN columns: no rule there (a floor, a fillet, a retaining silo (flat bottom, h_c/d_c ≤ 0.4), a surcharged silo below h_c/d_c 2, a wall rougher than "
-                           "the solid under a hopper).", (
+                           "EN columns: no rule there (a floor, a fillet, a retaining silo (flat bottom, h_c/d_c ≤ "
+                           "0.4), a surcharged silo below h_c/d_c 2, a wall rougher than the solid under a hopper).", (
     C("station", "-", "station index"), C("z", "m", "mean height of the station over the discharge"),
     C("p_opening", "Pa", "wall pressure at the opening (the profile at the end of the stage before the discharge, "
       "interpolated at z)"),
     C("p_en_filling", "Pa", "EN 1991-4 filling load at z"),
-    C("p_en_discharge", "Pa", "EN 1991-4 fixed discharge load at z (vertical wall: C_h 1.15 × filling; hopper: F_e)"),
+    C("p_en_discharge", "Pa", "EN 1991-4 fixed discharge load at z (vertical wall: C_h × filling, 1.15 in slender silos, "
+      "1 + 0.15 (h_c/d_c − 1) in intermediate ones, 1 in squat ones; hopper: F_e)"),
     C("p_en", "Pa", "the larger of the two: the load the code designs the wall for (near a hopper's outlet F_e < "
       "F_f and filling governs)"),
     C("p_mean", "Pa", "mean p_n over the first 10 s after the opening (or the whole discharge if shorter), while "
@@ -166,6 +167,19 @@ WALL_DYNAMICS = CsvFile("wall_dynamics.csv", "Written by `silo report`: what mak
       "switch, is left out"),
 ))
 
+PULSE_TRAVEL = CsvFile("pulse_travel.csv", "Written by `silo report`: whether the wall pressure's pulses run "
+                       "along the wall, per pair of neighbouring stations, over the first 10 s of the discharge after "
+                       "its start-up (as wall_dynamics.csv; stations pressed by less than 5 % of the most pressed "
+                       "one left out): p_n detrended and its part below 1 Hz removed, the lag of the upper "
+                       "station's pulses behind the lower one's that maximises their normalised cross-correlation, "
+                       "searched within half a period of the pulses' dominant frequency.", (
+    C("z_low", "m", "height of the pair's lower station"), C("z_high", "m", "height of its upper station"),
+    C("ds", "m", "their distance along the wall"),
+    C("lag", "s", "how long the upper station's pulses follow the lower one's (negative: they come first)"),
+    C("correlation", "-", "the normalised cross-correlation at that lag (1: the same pulse at both)"),
+    C("speed", "m/s", "ds / lag: the pulses' speed up the wall between the two (negative: down it)"),
+))
+
 RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a controlled discharge of a column "
                       "(thesis ch. 5): the rarefaction wave launched by the pull, per interior point (output.points; "
                       "the axis in the ch. 5 scenes), before the top's reflection reaches it.", (
@@ -187,7 +201,8 @@ FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a disch
 ))
 
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,
-                              DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, RAREFACTION, FLOW_CHANNEL)
+                              DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, PULSE_TRAVEL, RAREFACTION,
+                              FLOW_CHANNEL)
 
 
 def for_file(filename: str) -> CsvFile | None:

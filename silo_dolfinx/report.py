@@ -386,11 +386,13 @@ class Report:
         if window == "whole record":
             t0, t1 = float(np.nanmin(h["t"])), float(np.nanmax(h["t"]))
         sc = self.scene
-        f_theory = None
+        f_theory = f_radial = None
         if sc is not None:
             m = sc.material
             f_theory = theory.longitudinal_frequency(m.youngs_modulus, m.poisson_ratio, m.density,
                                                      sc.geometry.fill_height)
+            if sc.geometry.shape in ("flat_bottom", "bin_hopper"):  # a vertical wall: the fill's breathing mode
+                f_radial = theory.radial_frequency(m.youngs_modulus, m.poisson_ratio, m.density, sc.geometry.radius)
         fig, ax = plt.subplots(figsize=(10, 5))
         rows = []
         for k in np.unique(h["station"]).astype(int):
@@ -407,17 +409,23 @@ class Report:
             return
         if f_theory:
             ax.axvline(f_theory, color="r", ls="--", lw=1, label=f"eq. 4-12: {f_theory:.2f} Hz")
+        if f_radial:
+            ax.axvline(f_radial, color="m", ls=":", lw=1, label=f"radial mode (rigid wall): {f_radial:.3g} Hz")
         ax.set_xscale("log")
         ax.set_xlabel("frequency (Hz)")
         ax.set_ylabel("amplitude of p_n (Pa)")
         ax.legend(fontsize=7, ncol=2)
         ax.grid(alpha=0.3, which="both")
-        self._save(fig, "spectra.png", f"Amplitude spectra of p_n ({window}); dashed: eq. 4-12.")
+        self._save(fig, "spectra.png", f"Amplitude spectra of p_n ({window}); dashed: eq. 4-12; dotted: the "
+                   "radial mode inside a vertical wall.")
         name, pk, res = rows[len(rows) // 2]
         self.numbers.append((f"spectral peaks at {name} ({window})",
                              ", ".join(f"{p:.3g} Hz" for p in pk) + f" (resolution {res:.3g} Hz)"))
         if f_theory:
             self.numbers.append(("eq. 4-12 longitudinal frequency", f"{f_theory:.3g} Hz"))
+        if f_radial:
+            self.numbers.append(("radial (breathing) frequency of the fill inside the vertical wall, "
+                                 "3.832 √(M/ρ)/(2πR)", f"{f_radial:.3g} Hz"))
 
     def _table(self, f, rows) -> None:
         from silo_dolfinx.output.writer import CsvSeries

@@ -406,3 +406,18 @@ def test_taper_wave_growth_limits():
                            theory.wave_growth(x, 1.0, 0.3, 0.55), rtol=1e-6)
     G = 1.0 + 2.0 * x * math.tan(math.radians(5.0)) / 1.0
     assert np.allclose(theory.taper_wave_growth(x, 1.0, 1e-300, 0.55, 5.0), 1.0 / G, rtol=1e-12)
+
+
+def test_radial_frequency_is_the_first_zero_of_j1_of_a_dilatational_wave():
+    """A long column in a rigid cylinder breathing radially: u_r = J1(k r) solves the
+    dilatational wave equation (k = ω/√(M/ρ)); u_r(R) = 0 gives the first zero of J1. Checked
+    with scipy's J1 at the returned frequency (zero to 1e-12) and no sign change of J1 before it
+    (the fundamental); the ch. 6 silo, 75.0 Hz."""
+    from scipy.special import j1
+
+    E, nu, rho, R = 2e6, 0.3, 14270 / 9.81, 0.35
+    c = theory.confined_wave_speed(E, nu, rho)
+    f = theory.radial_frequency(E, nu, rho, R)
+    kR = 2 * math.pi * f * R / c
+    assert abs(j1(kR)) < 1e-12 and np.all(j1(np.linspace(1e-6, kR * (1 - 1e-9), 2000)) > 0)
+    assert f == pytest.approx(75.0, abs=0.05)

@@ -605,6 +605,25 @@ def stress_ratio(sig, p_min: float = 0.0):
     return _ratio(p, q, p_min)
 
 
+def mobilised_friction_angle(sig):
+    """(φ_mob in degrees, b) of (n, 4) stresses (rr, zz, θθ, rz; tension +): the Mohr–Coulomb
+    angle the stress mobilises, sin φ_mob = (σ1 − σ3)/(σ1 + σ3) with σ1 ≥ σ2 ≥ σ3 the principal
+    pressures (compression +), and where the intermediate one lies, b = (σ2 − σ3)/(σ1 − σ3): 0 in
+    axisymmetric compression (σ2 = σ3), 1 in extension (σ2 = σ1). A cohesionless solid is at
+    yield where φ_mob reaches its strength at that b: φ itself on Mohr–Coulomb's pyramid, between
+    the two angles :func:`silo_dolfinx.theory.mohr_coulomb_angle` gives for b = 0 and 1 on a
+    Drucker–Prager cone. NaN where σ1 + σ3 ≤ 0 (no compression); b NaN where σ1 = σ3."""
+    s = -np.atleast_2d(np.asarray(sig, float))
+    centre = 0.5 * (s[:, 0] + s[:, 1])
+    radius = np.hypot(0.5 * (s[:, 0] - s[:, 1]), s[:, 3])
+    pr = np.sort(np.stack([centre + radius, centre - radius, s[:, 2]], axis=1), axis=1)
+    s3, s2, s1 = pr[:, 0], pr[:, 1], pr[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sin_phi = np.where(s1 + s3 > 0.0, (s1 - s3) / (s1 + s3), np.nan)
+        b = np.where(s1 > s3, (s2 - s3) / (s1 - s3), np.nan)
+    return np.degrees(np.arcsin(np.clip(sin_phi, 0.0, 1.0))), b
+
+
 def principal_angle(t_rr, t_zz, t_rz, major: str = "compressive"):
     """Angle (degrees, in (−90, 90]) from the r axis (horizontal) of the major principal
     direction of an in-plane symmetric tensor. 'compressive' picks the most negative

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from silo_dolfinx import analysis
+from silo_dolfinx import analysis, theory
 
 
 def test_spectrum_finds_5_hz_and_0_7_hz_within_one_bin():
@@ -82,6 +82,30 @@ def test_stress_ratio_and_orientation():
     assert analysis.stress_ratio(sig[:1])[0] == pytest.approx(1.0)
     # strain rate: elongation along r -> major direction horizontal
     assert analysis.strain_rate_orientation([[1.0, -1.0, 0.0, 0.0]])[0] == pytest.approx(0.0)
+
+
+def test_mobilised_friction_angle_of_known_states():
+    """Rotated in-plane states of known principal pressures: σ1 3, σ3 1 → sin φ 0.5 (30°) whatever
+    the rotation and whichever of rr/zz/θθ is which; b from the hoop stress; on the Drucker–Prager
+    cone q = p tan β the angle at b = 0 and b = 1 is theory.mohr_coulomb_angle's compression and
+    extension angle (the cone's strength range, to round-off)."""
+    def state(s_a, s_b, s_hoop, angle):  # in-plane principal pressures s_a, s_b rotated by angle
+        c, s = np.cos(angle), np.sin(angle)
+        rr, zz, rz = s_a * c * c + s_b * s * s, s_a * s * s + s_b * c * c, (s_a - s_b) * c * s
+        return [-rr, -zz, -s_hoop, -rz]
+
+    sig = np.array([state(3.0, 1.0, 1.0, 0.3), state(1.0, 3.0, 2.0, -1.1), state(2.0, 1.0, 3.0, 0.7),
+                    state(3.0, 3.0, 3.0, 0.0), state(-1.0, -2.0, -1.0, 0.2)])
+    phi, b = analysis.mobilised_friction_angle(sig)
+    assert np.allclose(phi[:3], 30.0, atol=1e-12) and np.allclose(b[:3], [0.0, 0.5, 0.5], atol=1e-12)
+    assert phi[3] == 0.0 and np.isnan(b[3]) and np.isnan(phi[4])  # isotropic; all tension
+    beta = 46.63
+    t = np.tan(np.radians(beta))
+    for bb, cone in ((0.0, "compression"), (1.0, "extension")):
+        # σ3 = 1, σ2 = 1 + b(x − 1), σ1 = x on q = p tan β: (x − 1)(3√(1 − b + b²) − t(1 + b)) = 3t
+        x = 1.0 + 3.0 * t / (3.0 * np.sqrt(1.0 - bb + bb * bb) - t * (1.0 + bb))
+        phi, b = analysis.mobilised_friction_angle([state(x, 1.0, 1.0 + bb * (x - 1.0), 0.4)])
+        assert phi[0] == pytest.approx(theory.mohr_coulomb_angle(beta, cone), abs=1e-9) and b[0] == pytest.approx(bb)
 
 
 def test_windowed_mass_flow_of_a_known_discharge():

@@ -1,0 +1,209 @@
+# # Thesis ch. 7, beyond it: why the upper bin's wall pressure pulses with a constant μ
+#
+# The ch. 7 silo (a 0.7-m cylinder on a 20° hopper, 5 m of fill, wall μ 0.67, the discharge
+# solid the Drucker-Prager cone matched in extension; `demos/bin_hopper_ch7.py`) pulses in
+# discharge: from ~3 s after the opening the wall pressure of the upper bin swings at ~8 Hz, the
+# fill's second longitudinal mode (c/H), between ~0 and two to three times its mean, and the wall
+# sticks and slips with it - with a *constant* μ, i.e. without the velocity weakening (eq. 7-1)
+# the thesis offers as the cause of slip-stick. This demo asks what sets it, one thing changed at
+# a time:
+#
+# * the numerics: Δt halved, bulk viscosity doubled, one-point integration, the mesh halved - a
+#   physical instability does not care;
+# * the wall: μ 0.3, 0.5, 0.67, 1.0 and a smooth wall; the solid: ψ 0 and Mohr-Coulomb's pyramid;
+#   the outlet velocity halved;
+# * in the cell beside the wall (a fixed interior point at 3.6 m): how often the solid there is at
+#   yield, the Mohr-Coulomb angle it mobilises (`analysis.mobilised_friction_angle`), and the
+#   shear it carries on the wall's plane, |σ_rz|/σ_rr.
+#
+# The answer it measures (docs/validation/ch7.md, "Why the upper bin pulses"): the pulses grow
+# where the wall is as rough as the solid beside it is strong - there the solid next to the
+# wall yields, the shear is shared between slip at the wall and a plastic wall layer, and the
+# fill's mode is not damped by the wall's sliding; a wall that always slides (μ ≤ 0.5 here) lets
+# it decay.
+#
+#     mpirun -n 2 python demos/wall_pulses_ch7.py --quick    # h 0.05 m, 6 s, 4 variants (~4 min)
+#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (~35 min)
+#     ... --variants mu067 mu05 --reuse                       # measure what is there
+#
+# Results: `results/wall_pulses_ch7[_quick]/VARIANT/`, the table in `table.md` and the figure
+# `wall_pulses.png` next to them.
+
+# +
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+import silo_dolfinx  # noqa: F401  (imports dolfinx_solver first where it exists)
+from silo_dolfinx import analysis, theory
+from silo_dolfinx.output import read_csv, read_summary
+from silo_dolfinx.scene import load_scene
+from silo_dolfinx.simulation import run
+from silo_dolfinx.solver import InstabilityError
+
+SCENE = Path(__file__).parent / "scenes" / "bin_hopper_ch7_abrupt.toml"
+comm = MPI.COMM_WORLD
+# name: (overrides, what it changes); the element size is a factor on the run's h
+VARIANTS = {
+    "mu067": ([], "μ 0.67 (the reference)"),
+    "mu05": (["wall.mu=0.5"], "μ 0.5"),
+    "mu03": (["wall.mu=0.3"], "μ 0.3"),
+    "smooth": (['wall.friction="none"'], "smooth wall"),
+    "mu10": (["wall.mu=1.0"], "μ 1.0"),
+    "mohr_coulomb": (['material.model="mohr_coulomb"'], "Mohr-Coulomb's pyramid, φ 40°"),
+    "psi0": (["material.dilation_angle=0"], "ψ 0"),
+    "u05": (["discharge.velocity=0.5"], "u0/2"),
+    "dt05": (["numerics.time_step_scale=0.4"], "Δt × 0.5"),
+    "bulk2": (["numerics.bulk_viscosity=[0.12, 2.4]"], "bulk viscosity × 2"),
+    "reduced": (['numerics.integration="reduced"'], "one-point integration"),
+    "h2": (["h/2"], "h / 2"),
+}
+QUICK = ("mu067", "mu05", "mu10", "dt05")
+ap = argparse.ArgumentParser()
+ap.add_argument("--quick", action="store_true", help="h 0.05 m, 6 s of discharge, variants " + " ".join(QUICK))
+ap.add_argument("--variants", nargs="+", choices=tuple(VARIANTS), help="variants to run and measure")
+ap.add_argument("--reuse", action="store_true", help="run nothing: measure the results already there")
+args, _ = ap.parse_known_args()
+h, duration = (0.05, 6.0) if args.quick else (0.04, 10.0)
+window = (duration / 2, duration) if args.quick else (4.0, duration)  # s after the opening: the grown pulses
+variants = args.variants or (QUICK if args.quick else tuple(VARIANTS))
+ROOT = Path("results") / ("wall_pulses_ch7" + ("_quick" if args.quick else ""))
+STATIONS = (2.0, 3.6, 4.4)  # m: mid-bin, the upper bin, near the surface
+R_WALL = 0.35
+
+
+def say(*a):
+    if comm.rank == 0:
+        print(*a, flush=True)
+
+
+def scene_of(name):
+    sets, _ = VARIANTS[name]
+    hv = h / 2 if sets == ["h/2"] else h
+    sets = [] if sets == ["h/2"] else sets
+    # the interior points: the centre of the cell beside the wall, one further in, and near the
+    # axis, at each station's height (a fixed point reports the mean of the cell containing it)
+    points = [[r, z] for z in STATIONS for r in (R_WALL - hv / 2, R_WALL - 1.5 * hv, 0.1)]
+    return load_scene(SCENE, [f"geometry.element_size={hv}", f"discharge.duration={duration}", 'material.cone="extension"',
+                              f"output.stations=[{', '.join(map(str, STATIONS))}]",
+                              f"output.points={points}", "output.field_interval=5.0", *sets])
+
+
+if not args.reuse:
+    for name in variants:
+        say(f"== {name}: {VARIANTS[name][1]}")
+        start = time.perf_counter()
+        try:
+            run(scene_of(name), ROOT / name, comm, progress_every=60.0)
+        except InstabilityError as err:
+            say(f"   stopped: {err}")
+        if comm.rank == 0:
+            (ROOT / name / "wall_clock.txt").write_text(f"{time.perf_counter() - start:.1f}\n")
+comm.barrier()
+# -
+
+# ## Measuring each variant
+#
+# Over the window (s after the opening): at each station the mean and standard deviation of
+# p_n, its dominant frequency in 1-40 Hz, the fraction of the samples in which the wall node
+# slides (|v_slip| > 0.1 mm/s, `analysis.slip_fraction`); the standard deviation at 3.6 m in
+# 1-s windows from the opening (growth or decay); in the cell beside the wall at 3.6 m, the
+# fraction of the samples at yield - q/p within 3 % of the cone's tan β (Drucker-Prager) or
+# φ_mob within 3 % of φ (Mohr-Coulomb) -, the median φ_mob and the median |σ_rz|/σ_rr.
+
+# +
+YIELD_MARGIN = 0.97  # "at yield": within 3 % of the strength (the cell means of 2x2 points sit just inside it)
+
+
+def measure(name):
+    out = ROOT / name
+    summary = read_summary(out)
+    if summary.get("status") != "completed":
+        return {"name": name, "failed": summary.get("error", summary.get("status", "not run"))}
+    sc = load_scene(out / "scene.toml")
+    stages = {s["name"]: s for s in summary["stages"]}
+    t_open = stages["discharge"]["t_start"]
+    t_w, z_w, P = analysis.station_matrix(read_csv(out / "wall_history.csv"), "station", "p_n")
+    _, _, V = analysis.station_matrix(read_csv(out / "wall_history.csv"), "station", "slip_velocity")
+    in_w = (t_w >= t_open + window[0]) & (t_w <= t_open + window[1])
+    res = {"name": name, "energy": summary["energy_balance_error_max"],
+           "wall_clock": float((out / "wall_clock.txt").read_text()) if (out / "wall_clock.txt").exists() else np.nan}
+    for k, z in enumerate(z_w):
+        p = P[k, in_w]
+        sp = analysis.spectrum(t_w[in_w], p)
+        band = (sp.frequency > 1.0) & (sp.frequency < 40.0)
+        res[f"z{k}"] = dict(z=z, mean=p.mean(), std=p.std(), p99=np.percentile(p, 99),
+                            f=sp.frequency[band][np.argmax(sp.amplitude[band])], slides=analysis.slip_fraction(V[k, in_w]))
+    k36 = int(np.argmin(np.abs(z_w - 3.6)))
+    edges = np.arange(0.0, window[1] + 1e-9, 1.0)
+    res["growth"] = [P[k36, (t_w >= t_open + a) & (t_w < t_open + a + 1.0)].std() for a in edges[:-1]]
+    pts = read_csv(out / "point_history.csv")
+    m = (pts["point"] == 3) & (pts["t"] >= t_open + window[0]) & (pts["t"] <= t_open + window[1])  # wall cell, 3.6 m
+    sig = np.stack([pts[c][m] for c in ("stress_rr", "stress_zz", "stress_tt", "stress_rz")], axis=1)
+    phi, _ = analysis.mobilised_friction_angle(sig)
+    mat = sc.material
+    if mat.model == "mohr_coulomb":
+        at_yield = phi >= YIELD_MARGIN * mat.friction_angle
+    else:
+        beta = theory.drucker_prager_cone(mat.friction_angle, mat.dilation_angle, mat.cone)[0]
+        at_yield = pts["q_over_p"][m] >= YIELD_MARGIN * np.tan(np.radians(beta))
+    res["wall_cell"] = dict(at_yield=float(np.mean(at_yield)), phi=float(np.nanmedian(phi)),
+                            shear=float(np.median(np.abs(sig[:, 3]) / np.maximum(-sig[:, 0], 1e-9))))
+    res["trace"] = (t_w[in_w] - t_open, P[k36, in_w])
+    return res
+
+
+R = {}
+if comm.rank == 0:
+    R = {n: measure(n) for n in variants}
+# -
+
+# ## The table and the figure
+
+# +
+if comm.rank == 0:
+    rows = [f"# Why the upper bin pulses (h {h:g} m, {duration:g} s of discharge; window {window[0]:g}-{window[1]:g} s "
+            "after the opening)", "",
+            "| variant | p_n at 3.6 m: mean / std (kPa) | its frequency | std at 4.4 m / 2.0 m (kPa) | std at 3.6 m "
+            "per 1-s window from the opening (kPa) | wall slides (3.6 m) | wall cell at 3.6 m: at yield / φ_mob / "
+            "σ_rz/σ_rr | 99th pct. at 4.4 m (kPa) | energy error | wall-clock |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
+    for n, r in R.items():
+        if "failed" in r:
+            rows.append(f"| {VARIANTS[n][1]} | {r['failed']} |" + " |" * 8)
+            continue
+        a, b, c = r["z0"], r["z1"], r["z2"]
+        w = r["wall_cell"]
+        rows.append(f"| {VARIANTS[n][1]} | {b['mean'] / 1e3:.2f} / {b['std'] / 1e3:.2f} | {b['f']:.1f} Hz | "
+                    f"{c['std'] / 1e3:.2f} / {a['std'] / 1e3:.2f} | {' '.join(f'{g / 1e3:.2f}' for g in r['growth'])} | "
+                    f"{b['slides']:.0%} | {w['at_yield']:.0%} / {w['phi']:.1f}° / {w['shear']:.3f} | {c['p99'] / 1e3:.2f} | "
+                    f"{r['energy']:.3%} | {r['wall_clock']:.0f} s |")
+    ROOT.mkdir(parents=True, exist_ok=True)
+    (ROOT / "table.md").write_text("\n".join(rows) + "\n")
+    print("\n".join(rows))
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4))
+    for n, r in R.items():
+        if "failed" in r:
+            continue
+        ax[1].plot(np.arange(len(r["growth"])) + 0.5, np.array(r["growth"]) / 1e3, "o-", label=VARIANTS[n][1])
+        if n in ("mu05", "mu067", "mu10"):
+            t, p = r["trace"]
+            keep = t < window[0] + 1.5
+            ax[0].plot(t[keep], p[keep] / 1e3, label=VARIANTS[n][1])
+    ax[0].set(xlabel="time after the opening (s)", ylabel="p_n at 3.6 m (kPa)", title="the upper bin's wall pressure")
+    ax[1].set(xlabel="time after the opening (s)", ylabel="std of p_n at 3.6 m in 1-s windows (kPa)",
+              title="growth or decay of the pulses")
+    for a in ax:
+        a.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(ROOT / "wall_pulses.png", dpi=110)
+# -

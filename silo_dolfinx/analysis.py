@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from silo_dolfinx.geometry.cells import cell_areas
-from silo_dolfinx.invariants import p_q
+from silo_dolfinx.invariants import p_q, principal_values
 from silo_dolfinx.invariants import stress_ratio as _ratio
 
 
@@ -613,11 +613,8 @@ def mobilised_friction_angle(sig):
     yield where φ_mob reaches its strength at that b: φ itself on Mohr–Coulomb's pyramid, between
     the two angles :func:`silo_dolfinx.theory.mohr_coulomb_angle` gives for b = 0 and 1 on a
     Drucker–Prager cone. NaN where σ1 + σ3 ≤ 0 (no compression); b NaN where σ1 = σ3."""
-    s = -np.atleast_2d(np.asarray(sig, float))
-    centre = 0.5 * (s[:, 0] + s[:, 1])
-    radius = np.hypot(0.5 * (s[:, 0] - s[:, 1]), s[:, 3])
-    pr = np.sort(np.stack([centre + radius, centre - radius, s[:, 2]], axis=1), axis=1)
-    s3, s2, s1 = pr[:, 0], pr[:, 1], pr[:, 2]
+    a_b_k = principal_values(sig)  # tension +, a ≥ b ≥ k: the pressures are σ1 = −k ≥ σ2 = −b ≥ σ3 = −a
+    s1, s2, s3 = -a_b_k[:, 2], -a_b_k[:, 1], -a_b_k[:, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         sin_phi = np.where(s1 + s3 > 0.0, (s1 - s3) / (s1 + s3), np.nan)
         b = np.where(s1 > s3, (s2 - s3) / (s1 - s3), np.nan)

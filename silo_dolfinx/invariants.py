@@ -102,3 +102,13 @@ def p_q(sig) -> tuple[np.ndarray, np.ndarray]:
     d = s[:, :3] - m[:, None]
     j2 = 0.5 * (d**2).sum(axis=1) + s[:, 3] ** 2
     return -m, np.sqrt(3.0 * j2)
+
+
+def principal_values(sig) -> np.ndarray:
+    """(n, 3) principal stresses a ≥ b ≥ k of (n, 4) stresses (tension +): the vectorised
+    :func:`principal` for output and analysis (the in-plane pair from the Mohr circle, the hoop
+    stress itself principal)."""
+    s = np.atleast_2d(np.asarray(sig, float))
+    centre = 0.5 * (s[:, 0] + s[:, 1])
+    radius = np.hypot(0.5 * (s[:, 0] - s[:, 1]), s[:, 3])
+    return -np.sort(-np.stack([centre + radius, centre - radius, s[:, 2]], axis=1), axis=1)

@@ -10,20 +10,23 @@
 #
 # * the numerics: Δt halved, bulk viscosity doubled, one-point integration, the mesh halved - a
 #   physical instability does not care;
-# * the wall: μ 0.3, 0.5, 0.67, 1.0 and a smooth wall; the solid: ψ 0 and Mohr-Coulomb's pyramid;
-#   the outlet velocity halved;
+# * the wall: μ 0.3 to 1.0 and a smooth wall, the threshold's two sides again with Δt halved and
+#   on meshes h/2 and h/4; the solid: ψ 0 and Mohr-Coulomb's pyramid; the outlet velocity halved;
 # * in the cell beside the wall (a fixed interior point at 3.6 m): how often the solid there is at
 #   yield, the Mohr-Coulomb angle it mobilises (`analysis.mobilised_friction_angle`), and the
-#   shear it carries on the wall's plane, |σ_rz|/σ_rr.
+#   shear it carries on the wall's plane, |σ_rz|/σ_rr, against the most the cone admits at its
+#   normal stresses (`analysis.wall_shear_capacity`): a wall rougher than that cannot slide
+#   before the solid beside it yields.
 #
-# The answer it measures (docs/validation/ch7.md, "Why the upper bin pulses"): the pulses grow
-# where the wall is as rough as the solid beside it is strong - there the solid next to the
-# wall yields, the shear is shared between slip at the wall and a plastic wall layer, and the
-# fill's mode is not damped by the wall's sliding; a wall that always slides (μ ≤ 0.5 here) lets
-# it decay.
+# The answer it measures (docs/validation/ch7.md, "Why the upper bin pulses"): above a critical
+# μ (0.55-0.575 on the 0.04-m mesh, lower on finer meshes) the wall's steady sliding is itself
+# unstable - the pulses grow while the wall slides throughout, and the sticking follows the grown
+# pulses (the flutter of sliding under Coulomb friction, Martins et al. 1995); below it they
+# decay. They are worst where μ is near what the solid beside the wall can carry on the wall's
+# plane (~0.67 here), where the wall alternates between slip and stick.
 #
 #     mpirun -n 2 python demos/wall_pulses_ch7.py --quick    # h 0.05 m, 6 s, 4 variants (~4 min)
-#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (~35 min)
+#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (~1.5 h; h/4 ~35 min)
 #     ... --variants mu067 mu05 --reuse                       # measure what is there
 #
 # Results: `results/wall_pulses_ch7[_quick]/VARIANT/`, the table in `table.md` and the figure
@@ -46,11 +49,21 @@ from silo_dolfinx.solver import InstabilityError
 
 SCENE = Path(__file__).parent / "scenes" / "bin_hopper_ch7_abrupt.toml"
 comm = MPI.COMM_WORLD
-# name: (overrides, what it changes); "h2" also halves the element size
+# name: (overrides, what it changes); "hN" and "*_hN" also divide the element size by N
 VARIANTS = {
     "mu067": ([], "μ 0.67 (the reference)"),
     "mu05": (["wall.mu=0.5"], "μ 0.5"),
     "mu03": (["wall.mu=0.3"], "μ 0.3"),
+    "mu055": (["wall.mu=0.55"], "μ 0.55"),
+    "mu0575": (["wall.mu=0.575"], "μ 0.575"),
+    "mu06": (["wall.mu=0.6"], "μ 0.6"),
+    "mu08": (["wall.mu=0.8"], "μ 0.8"),
+    "mu055_dt05": (["wall.mu=0.55", "numerics.time_step_scale=0.4"], "μ 0.55, Δt × 0.5"),
+    "mu0575_dt05": (["wall.mu=0.575", "numerics.time_step_scale=0.4"], "μ 0.575, Δt × 0.5"),
+    "mu05_h2": (["wall.mu=0.5"], "μ 0.5, h / 2"),
+    "mu05_h4": (["wall.mu=0.5"], "μ 0.5, h / 4"),
+    "mu055_h2": (["wall.mu=0.55"], "μ 0.55, h / 2"),
+    "mu0575_h2": (["wall.mu=0.575"], "μ 0.575, h / 2"),
     "smooth": (['wall.friction="none"'], "smooth wall"),
     "mu10": (["wall.mu=1.0"], "μ 1.0"),
     "mohr_coulomb": (['material.model="mohr_coulomb"'], "Mohr-Coulomb's pyramid, φ 40°"),
@@ -82,7 +95,8 @@ def say(*a):
 
 def scene_of(name):
     sets, _ = VARIANTS[name]
-    hv = h / 2 if name == "h2" else h
+    last = name.split("_")[-1]
+    hv = h / int(last[1:]) if last[0] == "h" else h
     # the interior points: the centre of the cell beside the wall, one further in, and near the
     # axis, at each station's height (a fixed point reports the mean of the cell containing it)
     points = [[r, z] for z in STATIONS for r in (R_WALL - hv / 2, R_WALL - 1.5 * hv, 0.1)]
@@ -111,7 +125,9 @@ comm.barrier()
 # slides (|v_slip| > 0.1 mm/s, `analysis.slip_fraction`); the standard deviation at 3.6 m in
 # 1-s windows from the opening (growth or decay); in the cell beside the wall at 3.6 m, the
 # fraction of the samples at yield - q/p within 3 % of the cone's tan β (Drucker-Prager) or
-# φ_mob within 3 % of φ (Mohr-Coulomb) -, the median φ_mob and the median |σ_rz|/σ_rr.
+# φ_mob within 3 % of φ (Mohr-Coulomb) -, the median φ_mob and b, the median |σ_rz|/σ_rr and the
+# median shear capacity of the wall's plane there (Drucker-Prager only): where μ exceeds it the
+# solid yields before the wall slides.
 
 # +
 YIELD_MARGIN = 0.97  # "at yield": within 3 % of the strength (the cell means of 2x2 points sit just inside it)
@@ -143,15 +159,18 @@ def measure(name):
     pts = read_csv(out / "point_history.csv")
     m = (pts["point"] == 3) & (pts["t"] >= t_open + window[0]) & (pts["t"] <= t_open + window[1])  # wall cell, 3.6 m
     sig = np.stack([pts[c][m] for c in ("stress_rr", "stress_zz", "stress_tt", "stress_rz")], axis=1)
-    phi, _ = analysis.mobilised_friction_angle(sig)
+    phi, b = analysis.mobilised_friction_angle(sig)
     mat = sc.material
+    capacity = np.full(len(sig), np.nan)
     if mat.model == "mohr_coulomb":
         at_yield = phi >= YIELD_MARGIN * mat.friction_angle
     else:
-        beta = theory.drucker_prager_cone(mat.friction_angle, mat.dilation_angle, mat.cone)[0]
-        at_yield = pts["q_over_p"][m] >= YIELD_MARGIN * np.tan(np.radians(beta))
-    res["wall_cell"] = dict(at_yield=float(np.mean(at_yield)), phi=float(np.nanmedian(phi)),
-                            shear=float(np.median(np.abs(sig[:, 3]) / np.maximum(-sig[:, 0], 1e-9))))
+        tan_beta = np.tan(np.radians(theory.drucker_prager_cone(mat.friction_angle, mat.dilation_angle, mat.cone)[0]))
+        at_yield = pts["q_over_p"][m] >= YIELD_MARGIN * tan_beta
+        capacity = analysis.wall_shear_capacity(sig, tan_beta)
+    res["wall_cell"] = dict(at_yield=float(np.mean(at_yield)), phi=float(np.nanmedian(phi)), b=float(np.nanmedian(b)),
+                            shear=float(np.median(np.abs(sig[:, 3]) / np.maximum(-sig[:, 0], 1e-9))),
+                            capacity=float(np.nanmedian(capacity)) if np.isfinite(capacity).any() else np.nan)
     res["trace"] = (t_w[in_w] - t_open, P[k36, in_w])
     return res
 
@@ -168,8 +187,8 @@ if comm.rank == 0:
     rows = [f"# Why the upper bin pulses (h {h:g} m, {duration:g} s of discharge; window {window[0]:g}-{window[1]:g} s "
             "after the opening)", "",
             "| variant | p_n at 3.6 m: mean / std (kPa) | its frequency | std at 4.4 m / 2.0 m (kPa) | std at 3.6 m "
-            "per 1-s window from the opening (kPa) | wall slides (3.6 m) | wall cell at 3.6 m: at yield / φ_mob / "
-            "σ_rz/σ_rr | 99th pct. at 4.4 m (kPa) | energy error | wall-clock |",
+            "per 1-s window from the opening (kPa) | wall slides (3.6 m) | wall cell at 3.6 m: at yield / φ_mob / b / "
+            "σ_rz/σ_rr / capacity | 99th pct. at 4.4 m (kPa) | energy error | wall-clock |",
             "|---|---|---|---|---|---|---|---|---|---|"]
     for n, r in R.items():
         if "failed" in r:
@@ -179,7 +198,8 @@ if comm.rank == 0:
         w = r["wall_cell"]
         rows.append(f"| {VARIANTS[n][1]} | {b['mean'] / 1e3:.2f} / {b['std'] / 1e3:.2f} | {b['f']:.1f} Hz | "
                     f"{c['std'] / 1e3:.2f} / {a['std'] / 1e3:.2f} | {' '.join(f'{g / 1e3:.2f}' for g in r['growth'])} | "
-                    f"{b['slides']:.0%} | {w['at_yield']:.0%} / {w['phi']:.1f}° / {w['shear']:.3f} | {c['p99'] / 1e3:.2f} | "
+                    f"{b['slides']:.0%} | {w['at_yield']:.0%} / {w['phi']:.1f}° / {w['b']:.2f} / {w['shear']:.3f} / "
+                    f"{w['capacity']:.3f} | {c['p99'] / 1e3:.2f} | "
                     f"{r['energy']:.3%} | {r['wall_clock']:.0f} s |")
     ROOT.mkdir(parents=True, exist_ok=True)
     (ROOT / "table.md").write_text("\n".join(rows) + "\n")
@@ -190,20 +210,28 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4))
-    for n, r in R.items():
-        if "failed" in r:
-            continue
-        ax[1].plot(np.arange(len(r["growth"])) + 0.5, np.array(r["growth"]) / 1e3, "o-", label=VARIANTS[n][1])
-        if n in ("mu05", "mu067", "mu10"):
-            t, p = r["trace"]
+    # the growth or decay of the pulses: the μ sweep on the scene's mesh, then the threshold's two
+    # sides with Δt halved and on finer meshes (the numerics and solid variants are in the table)
+    SWEEP = ("smooth", "mu03", "mu05", "mu055", "mu0575", "mu06", "mu067", "mu08", "mu10")
+    SIDES = ("mu055", "mu0575", "mu055_dt05", "mu0575_dt05", "mu05_h2", "mu055_h2", "mu0575_h2", "mu05_h4")
+    fig, ax = plt.subplots(1, 3, figsize=(16, 4))
+    for panel, names in ((ax[1], SWEEP), (ax[2], SIDES)):
+        shown = [n for n in names if n in R and "failed" not in R[n]]
+        for k, n in enumerate(shown):
+            g = np.array(R[n]["growth"]) / 1e3
+            panel.plot(np.arange(len(g)) + 0.5, g, marker="o", color=plt.cm.viridis(k / max(len(shown) - 1, 1)),
+                       ls="--" if "_" in n else "-", label=VARIANTS[n][1])
+    for n in ("mu055", "mu0575", "mu067"):
+        if n in R and "failed" not in R[n]:
+            t, p = R[n]["trace"]
             keep = t < window[0] + 1.5
             ax[0].plot(t[keep], p[keep] / 1e3, label=VARIANTS[n][1])
     ax[0].set(xlabel="time after the opening (s)", ylabel="p_n at 3.6 m (kPa)", title="the upper bin's wall pressure")
-    ax[1].set(xlabel="time after the opening (s)", ylabel="std of p_n at 3.6 m in 1-s windows (kPa)",
-              title="growth or decay of the pulses")
+    for a, title in ((ax[1], "the pulses against the wall's μ"), (ax[2], "the threshold's sides: Δt and mesh")):
+        a.set(xlabel="time after the opening (s)", ylabel="std of p_n at 3.6 m in 1-s windows (kPa)", title=title)
     for a in ax:
-        a.legend(fontsize=7)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(ROOT / "wall_pulses.png", dpi=110)
 # -

@@ -621,6 +621,26 @@ def mobilised_friction_angle(sig):
     return np.degrees(np.arcsin(np.clip(sin_phi, 0.0, 1.0))), b
 
 
+def wall_shear_capacity(sig, tan_beta: float):
+    """The largest |σ_rz|/σ_rr the cohesionless Drucker–Prager cone q = p tan β admits at the
+    normal stresses (rr, zz, θθ) of each of the (n, 4) stresses (tension +): the shear a wall
+    whose plane is r = const can take from the solid beside it before that solid yields,
+
+        σ_rz,max² = (p² tan²β − 3/2 |dev(σ_rr, σ_zz, σ_θθ)|²)/3,   q² = 3/2 |dev|² + 3 σ_rz²,
+
+    over the wall's normal pressure −σ_rr. A wall of friction μ below it slides before the solid
+    next to it yields; above it the solid there yields first and the wall can stick. The state's
+    own σ_rz does not enter. Its maximum over the other two normal stresses is
+    :func:`silo_dolfinx.theory.drucker_prager_wall_shear_limit`. 0 where the normal stresses
+    alone are outside the cone; NaN where σ_rr ≥ 0 (no contact pressure)."""
+    s = np.atleast_2d(np.asarray(sig, float))
+    mean = s[:, :3].mean(axis=1)
+    dev2 = ((s[:, :3] - mean[:, None]) ** 2).sum(axis=1)
+    tau2 = (mean * mean * tan_beta * tan_beta - 1.5 * dev2) / 3.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(s[:, 0] < 0.0, np.sqrt(np.maximum(tau2, 0.0)) / -s[:, 0], np.nan)
+
+
 def principal_angle(t_rr, t_zz, t_rz, major: str = "compressive"):
     """Angle (degrees, in (−90, 90]) from the r axis (horizontal) of the major principal
     direction of an in-plane symmetric tensor. 'compressive' picks the most negative

@@ -108,6 +108,34 @@ def test_mobilised_friction_angle_of_known_states():
         assert phi[0] == pytest.approx(theory.mohr_coulomb_angle(beta, cone), abs=1e-9) and b[0] == pytest.approx(bb)
 
 
+def test_wall_shear_capacity_on_and_inside_the_cone():
+    """States put on the cone by their σ_rz: the capacity is that σ_rz over −σ_rr (round-off);
+    the same normal stresses with any other σ_rz give the same capacity; with σ_zz = σ_θθ = a σ_rr
+    it peaks at theory.drucker_prager_wall_shear_limit's a and equals that limit (1e-12); normal
+    stresses alone outside the cone give 0, a tensile σ_rr NaN."""
+    beta = theory.drucker_prager_cone(40.0, 10.0, "extension")[0]  # ch. 7's discharge cone
+    t = np.tan(np.radians(beta))
+    rng = np.random.default_rng(3)
+    normals = -rng.uniform(1.0, 2.0, (200, 3))
+    p = -normals.mean(axis=1)
+    dev2 = ((normals + p[:, None]) ** 2).sum(axis=1)
+    rz = np.sqrt(np.maximum(p * p * t * t - 1.5 * dev2, 0.0) / 3.0)
+    on = np.column_stack([normals, rz])
+    assert np.allclose(analysis.stress_ratio(on)[rz > 0], t, rtol=1e-12)  # on the cone indeed
+    cap = analysis.wall_shear_capacity(on, t)
+    assert np.allclose(cap, rz / -normals[:, 0], rtol=1e-12, atol=1e-15)
+    on[:, 3] *= rng.uniform(-1.0, 1.0, 200)
+    assert np.array_equal(analysis.wall_shear_capacity(on, t), cap)
+    a_star = (9.0 + 2.0 * t * t) / (9.0 - 4.0 * t * t)
+    a = np.linspace(0.2, 3.0, 2801)
+    caps = analysis.wall_shear_capacity(np.column_stack([-np.ones_like(a), -a, -a, 0.0 * a]), t)
+    assert abs(a[np.argmax(caps)] - a_star) < 2e-3
+    limit = theory.drucker_prager_wall_shear_limit(beta)
+    assert analysis.wall_shear_capacity([[-1.0, -a_star, -a_star, 0.0]], t)[0] == pytest.approx(limit, rel=1e-12)
+    assert analysis.wall_shear_capacity([[-1.0, -20.0, -1.0, 0.0]], t)[0] == 0.0
+    assert np.isnan(analysis.wall_shear_capacity([[0.5, -1.0, -1.0, 0.1]], t)[0])
+
+
 def test_windowed_mass_flow_of_a_known_discharge():
     """M(t) = 30 t + 2 sin(2π t/10) sampled unevenly: each whole 10 s window's mean rate is
     exactly 30 kg/s (the sine integrates to zero over a period); a linear ramp's windows give

@@ -73,6 +73,7 @@ VARIANTS = {
     "bulk2": (["numerics.bulk_viscosity=[0.12, 2.4]"], "bulk viscosity × 2"),
     "reduced": (['numerics.integration="reduced"'], "one-point integration"),
     "h2": ([], "h / 2"),
+    "h4": ([], "h / 4"),
 }
 QUICK = ("mu067", "mu05", "mu10", "dt05")
 ap = argparse.ArgumentParser()

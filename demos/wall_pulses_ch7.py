@@ -26,7 +26,7 @@
 # plane (~0.67 here), where the wall alternates between slip and stick.
 #
 #     mpirun -n 2 python demos/wall_pulses_ch7.py --quick    # h 0.05 m, 6 s, 4 variants (~4 min)
-#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (~1.5 h; h/4 ~35 min)
+#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (~1 h 50 min; each h/4 ~35)
 #     ... --variants mu067 mu05 --reuse                       # measure what is there
 #
 # Results: `results/wall_pulses_ch7[_quick]/VARIANT/`, the table in `table.md` and the figure

@@ -97,7 +97,7 @@ def say(*a):
 def scene_of(name):
     sets, _ = VARIANTS[name]
     last = name.split("_")[-1]
-    hv = h / int(last[1:]) if last[0] == "h" else h
+    hv = h / int(last[1:]) if last[0] == "h" and last[1:].isdigit() else h
     # the interior points: the centre of the cell beside the wall, one further in, and near the
     # axis, at each station's height (a fixed point reports the mean of the cell containing it)
     points = [[r, z] for z in STATIONS for r in (R_WALL - hv / 2, R_WALL - 1.5 * hv, 0.1)]

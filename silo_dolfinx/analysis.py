@@ -633,10 +633,10 @@ def wall_shear_capacity(sig, tan_beta: float):
     own σ_rz does not enter. Its maximum over the other two normal stresses is
     :func:`silo_dolfinx.theory.drucker_prager_wall_shear_limit`. 0 where the normal stresses
     alone are outside the cone; NaN where σ_rr ≥ 0 (no contact pressure)."""
-    s = np.atleast_2d(np.asarray(sig, float))
-    mean = s[:, :3].mean(axis=1)
-    dev2 = ((s[:, :3] - mean[:, None]) ** 2).sum(axis=1)
-    tau2 = (mean * mean * tan_beta * tan_beta - 1.5 * dev2) / 3.0
+    s = np.array(np.atleast_2d(sig), float)
+    s[:, 3] = 0.0  # q of the normal stresses alone: q² − 3 σ_rz²
+    p, q_normal = p_q(s)
+    tau2 = ((p * tan_beta) ** 2 - q_normal**2) / 3.0
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(s[:, 0] < 0.0, np.sqrt(np.maximum(tau2, 0.0)) / -s[:, 0], np.nan)
 

@@ -19,6 +19,25 @@ predictor v*:
    the slip speed that results from the step (solved by fixed-point iteration);
 4. separation (g ≥ 0) costs nothing: no force.
 
+Optionally (``wall.regularisation_length`` L > 0) the friction limit follows the normal force
+with a memory - the simplified Prakash–Clifton law of Cochard & Rice (2000) as Kammer et al.
+(2014) use it on a deformable-rigid interface: the limit is μ Ñ, with Ñ relaxing towards the
+contact force N at the rate (|v_slip| + v*)/L,
+
+    dÑ/dt = −(|v_slip| + v*)/L · (Ñ − N),
+
+integrated exactly over each step (Ñ ← N + (Ñ − N)·exp(−(|v_slip| + v*)Δt/L), v_slip the last
+step's slip speed, N this step's force: L → 0 gives Coulomb's instantaneous limit to round-off).
+Coulomb friction between a deformable solid and a rigid wall can make steady sliding unstable
+(a flutter: Martins et al. 1995) and, above a μ set by the solid's Poisson ratio, ill-posed:
+disturbances grow at a rate that rises without bound as their wavelength shrinks (Renardy
+1992). On a mesh the fastest-growing disturbance is then the shortest the mesh carries, so what
+grows depends on the element size. The memory bounds that growth (the strength cannot
+follow a normal-force change faster than (|v| + v*)/L): with it, the problem has a length of its
+own. Ñ is state kept per node (checkpointed; it moves with its node when ALE slides the node
+along the wall - the smoothing moves a wall node a fraction of an element per remap, and Ñ
+relaxes over L/(|v| + v*) anyway).
+
 Wall pressures are the forces over the node's tributary area ∫ N_a 2π r ds. Besides the last
 step's forces each node keeps their time integrals since the wall history's last sample
 (:meth:`WallContact.interval_means`): the history records the mean over each sampling interval,
@@ -74,14 +93,33 @@ class FrictionLaw:
         return np.array([self.kind, self.mu, self.mu_static, self.mu_kinetic, self.decay], float)
 
 
+@dataclass(frozen=True)
+class FrictionMemory:
+    """The simplified Prakash–Clifton memory of the friction limit (module docstring): a length
+    L (m) and a speed v* (m/s); the limit μ Ñ relaxes towards μ N over L/(|v_slip| + v*)."""
+
+    length: float
+    speed: float
+
+    @classmethod
+    def from_wall(cls, w) -> FrictionMemory | None:
+        """The scene's wall memory, or None (Coulomb's instantaneous limit: nothing is built)."""
+        if w["friction"] == "none" or w["regularisation_length"] <= 0.0:
+            return None
+        return cls(w["regularisation_length"], w["regularisation_speed"])
+
+
 class WallContact:
-    """Kinematic contact of a node set with an analytic wall; one friction law per piece."""
+    """Kinematic contact of a node set with an analytic wall; one friction law per piece, and
+    optionally a :class:`FrictionMemory` (its per-node state :attr:`lagged_normal`)."""
 
     CHECKPOINT = ("normal_force", "shear_force", "slip_velocity", "in_contact", "s", "normal", "_p", "interval", "interval_span")
 
-    def __init__(self, wall: Wall, nodes: np.ndarray, dofs: np.ndarray, laws: list[FrictionLaw]):
+    def __init__(self, wall: Wall, nodes: np.ndarray, dofs: np.ndarray, laws: list[FrictionLaw],
+                 memory: FrictionMemory | None = None):
         """``nodes``: geometry-node indices (owned only), ``dofs``: their velocity block indices,
-        ``laws``: a friction law per wall piece."""
+        ``laws``: a friction law per wall piece, ``memory``: the friction limit's memory (None:
+        Coulomb's instantaneous limit, no state)."""
         self.wall = wall
         self.nodes = np.asarray(nodes, np.int64)
         self.dofs = np.asarray(dofs, np.int64)
@@ -100,6 +138,11 @@ class WallContact:
         self._p = np.zeros((n, 2))
         self.interval = np.zeros((n, 3))  # ∫ N dt, ∫ T dt, ∫ slip dt since the last interval_means()
         self.interval_span = np.zeros(1)  # ∫ dt over the same steps (one for every node)
+        self.memory = memory
+        self._memory = np.array([memory.length, memory.speed] if memory else [0.0, 0.0])
+        self.lagged_normal = np.zeros(n if memory else 0)  # Ñ (newton): the force the limit μ Ñ reads
+        if memory:
+            self.CHECKPOINT = WallContact.CHECKPOINT + ("lagged_normal",)
         # the projection of every step, into arrays kept here (no allocation per step)
         self._gap, self._closest, self._piece = np.zeros(n), np.zeros((n, 2)), np.zeros(n, np.int64)
         t0 = np.subtract(wall.pieces[0].start, wall.point_at(min(1e-9, wall.length))[0])
@@ -112,7 +155,7 @@ class WallContact:
         keep = ~np.isin(self.dofs, dofs)
         self.nodes, self.dofs = self.nodes[keep], self.dofs[keep]
         for name in ("normal_force", "shear_force", "slip_velocity", "in_contact", "s", "normal", "_p", "_gap",
-                     "_closest", "_piece", "interval"):
+                     "_closest", "_piece", "interval") + (("lagged_normal",) if self.memory else ()):
             setattr(self, name, getattr(self, name)[keep])
 
     def apply(self, x: np.ndarray, v: np.ndarray, mass: np.ndarray, dt: float, dt_avg: float) -> None:
@@ -122,8 +165,8 @@ class WallContact:
         _predict(self._p, x, self.nodes, v, self.dofs, dt)
         self.wall.project_into(self._p, (self._gap, self._closest, self.normal, self.s, self._piece))
         _open_ends(self._gap, self.s, self._p, self._ends, self.wall.length)
-        _correct(v, self.dofs, mass, (self._gap, self.normal, self._piece), self._law_table,
-                 (dt, dt_avg, self._frictionless), self.outputs)
+        _correct(v, self.dofs, mass, (self._gap, self.normal, self._piece),
+                 (self._law_table, self.lagged_normal, self._memory), (dt, dt_avg, self._frictionless), self.outputs)
 
     def accept(self, dt: float) -> None:
         """The step whose forces :meth:`apply` computed is accepted (a rejected trial is not):
@@ -183,16 +226,23 @@ def _predict(p, x, nodes, v, dofs, dt):
 
 
 @numba.njit(cache=True)
-def _correct(v, dofs, mass, projection, laws, steps, out):
-    """projection = (gap, normal, piece) of each node's predicted position; laws: the friction
-    table (one row per wall piece); steps = (Δt, Δt̄, frictionless); out = (N, T, slip,
-    in_contact) per node (:attr:`WallContact.outputs`)."""
+def _correct(v, dofs, mass, projection, friction, steps, out):
+    """projection = (gap, normal, piece) of each node's predicted position; friction = (the law
+    table, one row per wall piece; Ñ per node; the memory's (L, v*), L = 0: none); steps = (Δt,
+    Δt̄, frictionless); out = (N, T, slip, in_contact) per node (:attr:`WallContact.outputs`;
+    slip holds the last step's on entry)."""
     gap, normal, piece = projection
+    laws, lagged, memory = friction
     dt, dt_avg, frictionless = steps
     N_out, T_out, slip_out, contact = out
     for k in range(dofs.shape[0]):
         i = dofs[k]
         g = gap[k]
+        N = 0.0 if g >= 0.0 else mass[i] * (-g) / (dt * dt_avg)
+        N_limit = N
+        if memory[0] > 0.0:  # Ñ ← N + (Ñ − N) exp(−(|v_slip| + v*) Δt / L)
+            N_limit = N + (lagged[k] - N) * math.exp(-(abs(slip_out[k]) + memory[1]) * dt / memory[0])
+            lagged[k] = N_limit
         if g >= 0.0 or mass[i] <= 0.0:
             N_out[k] = 0.0
             T_out[k] = 0.0
@@ -205,7 +255,6 @@ def _correct(v, dofs, mass, projection, laws, steps, out):
         # normal: land exactly on the wall
         v[i, 0] += g / dt * nr
         v[i, 1] += g / dt * nz
-        N = mass[i] * (-g) / (dt * dt_avg)
         N_out[k] = N
         vt = v[i, 0] * tr + v[i, 1] * tz
         if frictionless:
@@ -221,7 +270,7 @@ def _correct(v, dofs, mass, projection, laws, steps, out):
         else:
             mu = law[2]  # static: μ at zero slip speed decides stick
         T_stick = mass[i] * abs(vt) / dt_avg
-        if T_stick <= mu * N:
+        if T_stick <= mu * N_limit:
             dv = -vt
             T_out[k] = -mass[i] * vt / dt_avg
         else:
@@ -229,7 +278,7 @@ def _correct(v, dofs, mass, projection, laws, steps, out):
             if kind == 2:
                 # μ at the slip speed that results: v = |v*| − μ(v) N Δt̄/M, by fixed point (a
                 # contraction: |dμ/dv| N Δt̄/M ≤ ϖ (μs − μk) N Δt̄/M, small)
-                h = N * dt_avg / mass[i]
+                h = N_limit * dt_avg / mass[i]
                 speed = abs(vt)
                 for _ in range(50):
                     mu = law[3] + (law[2] - law[3]) * math.exp(-law[4] * speed)
@@ -237,7 +286,7 @@ def _correct(v, dofs, mass, projection, laws, steps, out):
                     if abs(speed_new - speed) <= 1e-13 * (1.0 + abs(vt)):
                         break
                     speed = speed_new
-            T_max = mu * N
+            T_max = mu * N_limit
             dv = -sgn * T_max * dt_avg / mass[i]
             T_out[k] = -sgn * T_max
         v[i, 0] += dv * tr

@@ -9,7 +9,7 @@ import pytest
 from mpi4py import MPI
 
 from silo_dolfinx import analysis, theory
-from silo_dolfinx.contact import COULOMB, VELOCITY, FrictionLaw, WallContact
+from silo_dolfinx.contact import COULOMB, VELOCITY, FrictionLaw, FrictionMemory, WallContact
 from silo_dolfinx.geometry import hopper_half_angle
 from silo_dolfinx.geometry.mesher import mesh_scene
 from silo_dolfinx.geometry.wall import Segment, Wall
@@ -138,6 +138,82 @@ def test_velocity_dependent_law_follows_eq_7_1_along_a_slip_ramp(comm):
     t, N, T, vz, push = h.T
     N0 = np.median(N[(t > 0.06) & (t < 0.1)])
     assert np.abs(vz[(t > 0.15) & (push < 0.9 * 0.67 * N0)]).max() < 1e-4
+
+
+# ------------------------------------------------------------------ the friction limit's memory
+def pressed_nodes(memory, law=FrictionLaw(COULOMB, mu=0.5), n=3):
+    """``n`` free nodes of 1 kg on the wall r = 2 (no mesh: the contact kernel alone)."""
+    x = np.column_stack([np.full(n, 2.0), np.linspace(0.0, 1.0, n)])
+    return WallContact(Wall([Segment((2.0, -5.0), (2.0, 5.0))]), np.arange(n), np.arange(n), [law], memory), x
+
+
+def press_and_slide(c, x, N, trial_slip, dt=1e-4):
+    """One contact step of nodes pressed into the wall with the force ``N`` (newton: a trial
+    normal velocity N Δt̄/M into it) and a trial tangential velocity ``trial_slip``; returns |T|."""
+    v = np.column_stack([np.full(len(x), N * dt), np.full(len(x), -trial_slip)])
+    c.apply(x, v, np.ones(len(x)), dt, dt)
+    return np.abs(c.shear_force.copy())
+
+
+def test_the_friction_limit_follows_a_normal_force_step_with_its_memory():
+    """The simplified Prakash-Clifton law dÑ/dt = −(|v| + v*)/L (Ñ − N): a node sliding at
+    0.1 m/s whose normal force steps from 1 to 3 N carries T = μ [3 − 2 exp(−(v + v*) t/L)]
+    (closed form at constant slip speed; the friction takes μ Ñ Δt/M = 1.5e-4 m/s of the 0.1
+    m/s each step, so the speed in the exponent is constant to 0.15 %: tolerance 0.3 %), where
+    Coulomb's limit jumps to μ N at once; a sticking node's limit follows at v*/L alone, to
+    round-off (its slip is exactly 0); and a memory far shorter than a step is Coulomb's limit
+    to round-off."""
+    mu, vs, vstar, L, dt = 0.5, 0.1, 0.01, 5.5e-4, 1e-4  # the sliding time scale L/(vs + v*) = 50 steps
+    c, x = pressed_nodes(FrictionMemory(L, vstar))
+    for _ in range(2000):  # settled under N = 1 N at the slip speed
+        press_and_slide(c, x, 1.0, vs)
+    assert np.allclose(c.lagged_normal, 1.0, rtol=1e-12)
+    n = np.arange(1, 401)  # eight time scales
+    T = np.array([press_and_slide(c, x, 3.0, vs) for _ in n])
+    slip = vs - mu * 2.0 * dt  # the slip speed midway through the relaxation (Ñ ≈ 2 N)
+    expected = mu * (3.0 - 2.0 * np.exp(-(slip + vstar) * n * dt / L))
+    assert np.allclose(T, expected[:, None], rtol=3e-3)
+    assert T[0, 0] < 0.6 * mu * 3.0 and T[-1, 0] > 0.99 * mu * 3.0  # the limit lags, then catches up
+    coulomb, _ = pressed_nodes(None)
+    assert np.allclose(press_and_slide(coulomb, x, 3.0, vs), mu * 3.0, rtol=1e-12)
+
+    # sticking (a trial slip far below what μ N stops): Ñ relaxes at v*/L, the node holds
+    c, x = pressed_nodes(FrictionMemory(L, vstar))
+    c.lagged_normal[:] = 1.0
+    for k in range(1, 101):
+        press_and_slide(c, x, 3.0, 1e-6)
+        assert np.all(c.slip_velocity == 0.0)
+        assert np.allclose(c.lagged_normal, 3.0 - 2.0 * math.exp(-vstar * k * dt / L), rtol=1e-12)
+
+    # L → 0: Coulomb's limit, force for force, through stick and slip
+    short, _ = pressed_nodes(FrictionMemory(1e-30, vstar))
+    coulomb, _ = pressed_nodes(None)
+    rng = np.random.default_rng(3)
+    for N, trial in zip(rng.uniform(0.1, 3.0, 50), rng.uniform(-0.05, 0.05, 50)):
+        assert np.array_equal(press_and_slide(short, x, N, trial), press_and_slide(coulomb, x, N, trial))
+
+
+def test_a_memory_changes_nothing_in_equilibrium_and_costs_nothing_when_off(shared_tmp, comm):
+    """The ch. 6 silo filled (μ = 0.3, the wall slides) with a memory of L = 1e-4 m, v* =
+    0.01 m/s (a sticking node's limit follows in 10 ms, the fill takes 10 s): once settled Ñ = N,
+    and the wall pressures are Coulomb's - p_n within 2 % of the run without memory at every
+    node of the sliding wall (measured 0.11 %: the margin is for the fill's slip-stick, which
+    the memory may realise differently), p_s/p_n = μ within 2 % (measured 0.15 %); without
+    the key the wall contact builds no memory and keeps no state."""
+    mu = 0.3
+    _, _, ref, _ = fill_flat_bottom(shared_tmp / "coulomb", comm, mu, "flat_bottom_ch6_literal_beta")
+    sc, summary, wall, _ = fill_flat_bottom(shared_tmp / "memory", comm, mu, "flat_bottom_ch6_literal_beta",
+                                            extra=("wall.regularisation_length=1e-4", "wall.regularisation_speed=0.01"))
+    assert sc.wall.regularisation_length == 1e-4
+    sel = (wall["z"] >= 0.1) & (wall["z"] <= 3.0)
+    assert np.allclose(wall["z"], ref["z"], atol=1e-4) and sel.sum() > 20  # the same nodes (settled a μm apart)
+    assert np.all(np.abs(wall["p_n"][sel] / ref["p_n"][sel] - 1) < 0.02)
+    assert np.all(np.abs(wall["p_s"][sel] / wall["p_n"][sel] - mu) < 0.02 * mu)
+    assert summary["energy_balance_error_max"] < 0.01
+    sc = load_scene(SCENES / "flat_bottom_ch6.toml", ["geometry.element_size=0.1"])
+    model = SiloModel(sc, mesh_scene(sc, comm))
+    assert model.contact.memory is None and model.contact.lagged_normal.size == 0
+    assert "lagged_normal" not in model.contact.CHECKPOINT
 
 
 # ------------------------------------------------------------------ the flat-bottomed silo (ch. 6)

@@ -490,6 +490,10 @@ def _cross_checks(out: dict[str, Any]) -> list[Problem]:
     if "mu_kinetic" in w and w["mu_kinetic"] > w["mu_static"]:
         p.append(Problem("wall", "mu_kinetic", f"= {_fmt(w['mu_kinetic'])} exceeds mu_static = "
                          f"{_fmt(w['mu_static'])}. Fix: mu_kinetic ≤ mu_static."))
+    if w["friction"] == "none" and w["regularisation_length"] > 0.0:
+        p.append(Problem("wall", "regularisation_length", f"= {_fmt(w['regularisation_length'])} m on a "
+                         "smooth wall (friction = \"none\"): there is no friction limit to give a memory. "
+                         "Fix: remove the key, or choose friction = \"coulomb\" or \"velocity_dependent\"."))
     a = out["ale"]
     tot = a["laplacian_weight"] + a["mid_area_weight"]
     if not 0.0 < tot <= 1.0 + 1e-12:

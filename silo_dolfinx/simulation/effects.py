@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from mpi4py import MPI
 
-from silo_dolfinx.contact import COULOMB, NONE, STICK, FrictionLaw, WallContact
+from silo_dolfinx.contact import COULOMB, NONE, STICK, FrictionLaw, FrictionMemory, WallContact
 from silo_dolfinx.geometry.mesher import FACET_TAGS
 from silo_dolfinx.geometry.wall import Segment, Wall
 from silo_dolfinx.solver import VelocityConstraint
@@ -148,7 +148,7 @@ class Surcharge(Effect):
 
 class WallFriction(Effect):
     """Kinematic contact of the wall nodes with the analytic wall and the scene's friction law
-    (none, Coulomb, eq. 7-1). The wall is continued beyond its top (material at the top corner
+    (none, Coulomb, eq. 7-1; with the limit's memory if the scene gives one). The wall is continued beyond its top (material at the top corner
     always has a wall beside it) and a flat floor, by a quarter of the outlet's shortest edge,
     beyond the outlet edge, with the wall's friction (:data:`LEAD_IN`; a hopper's wall ends at
     the outlet edge: its material leaves along it)."""
@@ -175,7 +175,8 @@ class WallFriction(Effect):
         lead = model.outline.under_outlet_edge(self.LEAD_IN * model.sm.shortest_facet("outlet"))
         if lead is not None and lead.length > 0.0:
             wall = Wall([lead] + list(wall.pieces))
-        self.contact = WallContact(wall, model.wall_nodes, s.node_dof[model.wall_nodes], [self.law] * len(wall.pieces))
+        self.contact = WallContact(wall, model.wall_nodes, s.node_dof[model.wall_nodes], [self.law] * len(wall.pieces),
+                                   FrictionMemory.from_wall(model.scene.wall))
         s.contacts.append(self.contact)
 
 

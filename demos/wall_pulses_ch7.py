@@ -50,6 +50,12 @@ from silo_dolfinx.solver import InstabilityError
 SCENE = Path(__file__).parent / "scenes" / "bin_hopper_ch7_abrupt.toml"
 comm = MPI.COMM_WORLD
 # name: (overrides, what it changes); "hN" and "*_hN" also divide the element size by N
+
+
+def MEMORY(length, speed=0.01):  # noqa: N802  (reads as a constant's name in the table)
+    return [f"wall.regularisation_length={length}", f"wall.regularisation_speed={speed}"]
+
+
 VARIANTS = {
     "mu067": ([], "μ 0.67 (the reference)"),
     "mu05": (["wall.mu=0.5"], "μ 0.5"),
@@ -74,6 +80,19 @@ VARIANTS = {
     "reduced": (['numerics.integration="reduced"'], "one-point integration"),
     "h2": ([], "h / 2"),
     "h4": ([], "h / 4"),
+    # the wall friction's memory (wall.regularisation_length L, v* 0.01 m/s): the limit follows
+    # the normal force over L/(|v_slip| + v*) - 8 ms at 0.05 m/s of slip for L 0.5 mm, 2 ms for
+    # 0.1 mm; the pulses' period is 114 ms, the mesh's shortest shear periods h/c_s 0.5-2 ms
+    "mu067_L05": (MEMORY(5e-4), "μ 0.67, memory L 0.5 mm"),
+    "mu067_L05_h2": (MEMORY(5e-4), "μ 0.67, memory L 0.5 mm, h / 2"),
+    "mu067_L05_h4": (MEMORY(5e-4), "μ 0.67, memory L 0.5 mm, h / 4"),
+    "mu067_L01": (MEMORY(1e-4), "μ 0.67, memory L 0.1 mm"),
+    "mu067_L01_h2": (MEMORY(1e-4), "μ 0.67, memory L 0.1 mm, h / 2"),
+    "mu055_L05": (["wall.mu=0.55", *MEMORY(5e-4)], "μ 0.55, memory L 0.5 mm"),
+    "mu055_L05_h2": (["wall.mu=0.55", *MEMORY(5e-4)], "μ 0.55, memory L 0.5 mm, h / 2"),
+    "mu055_L01": (["wall.mu=0.55", *MEMORY(1e-4)], "μ 0.55, memory L 0.1 mm"),
+    "mu055_L05v10": (["wall.mu=0.55", *MEMORY(5e-4, 0.1)], "μ 0.55, memory L 0.5 mm, v* 0.1 m/s"),
+    "mu055_L01_h2": (["wall.mu=0.55", *MEMORY(1e-4)], "μ 0.55, memory L 0.1 mm, h / 2"),
 }
 QUICK = ("mu067", "mu05", "mu10", "dt05")
 ap = argparse.ArgumentParser()
@@ -215,8 +234,11 @@ if comm.rank == 0:
     # sides with Δt halved and on finer meshes (the numerics and solid variants are in the table)
     SWEEP = ("smooth", "mu03", "mu05", "mu055", "mu0575", "mu06", "mu067", "mu08", "mu10")
     SIDES = ("mu055", "mu0575", "mu055_dt05", "mu0575_dt05", "mu05_h2", "mu055_h2", "mu0575_h2", "mu05_h4")
-    fig, ax = plt.subplots(1, 3, figsize=(16, 4))
-    for panel, names in ((ax[1], SWEEP), (ax[2], SIDES)):
+    MEMORIES = ("mu055", "mu055_h2", "mu055_L05", "mu055_L05_h2", "mu055_L01", "mu055_L01_h2", "mu067", "h2", "h4",
+                "mu067_L05", "mu067_L05_h2", "mu067_L05_h4")
+    fig, ax = plt.subplots(2, 2, figsize=(13, 8))
+    ax = ax.ravel()
+    for panel, names in ((ax[1], SWEEP), (ax[2], SIDES), (ax[3], MEMORIES)):
         shown = [n for n in names if n in R and "failed" not in R[n]]
         for k, n in enumerate(shown):
             g = np.array(R[n]["growth"]) / 1e3
@@ -228,7 +250,8 @@ if comm.rank == 0:
             keep = t < window[0] + 1.5
             ax[0].plot(t[keep], p[keep] / 1e3, label=VARIANTS[n][1])
     ax[0].set(xlabel="time after the opening (s)", ylabel="p_n at 3.6 m (kPa)", title="the upper bin's wall pressure")
-    for a, title in ((ax[1], "the pulses against the wall's μ"), (ax[2], "the threshold's sides: Δt and mesh")):
+    for a, title in ((ax[1], "the pulses against the wall's μ"), (ax[2], "the threshold's sides: Δt and mesh"),
+                     (ax[3], "Coulomb's limit and the limit's memory, on three meshes")):
         a.set(xlabel="time after the opening (s)", ylabel="std of p_n at 3.6 m in 1-s windows (kPa)", title=title)
     for a in ax:
         if a.get_legend_handles_labels()[0]:

@@ -148,7 +148,8 @@ def test_silo_run_command(shared_tmp, capsys, comm):
 
 # ------------------------------------------------------------------ what a scene switches off is not built
 ALL_ON = dict(material=DP | {"model": "non_coaxial", "noncoaxial_modulus": 5.6e4},
-              wall={"friction": "velocity_dependent", "mu_static": 0.4, "mu_kinetic": 0.3, "decay": 2.0},
+              wall={"friction": "velocity_dependent", "mu_static": 0.4, "mu_kinetic": 0.3, "decay": 2.0,
+                    "regularisation_length": 5e-4},
               loads={"top_surcharge": 1000.0}, fill={"method": "layers", "layers": 2, "duration": 0.2, "damping": 0.3},
               store={"duration": 0.05}, discharge={"mode": "controlled", "velocity": 0.05, "ramp_time": 0.01,
                                                   "duration": 0.02},
@@ -193,6 +194,13 @@ def test_an_effect_that_is_off_is_not_built(comm):
     assert [st.name for st in m.stages] == ["fill", "store"] and not {"ale", "outlet_drive"} & set(m.effects)
     # a smooth wall: the contact never evaluates friction
     assert build_model(scene(wall={"friction": "none"}), comm).contact._frictionless
+    # the friction limit's memory: a state per wall node, checkpointed; none without the key
+    c = on.contact
+    assert c.memory is not None and c.lagged_normal.shape == c.nodes.shape and "lagged_normal" in c.CHECKPOINT
+    wall = dict(ALL_ON["wall"])
+    del wall["regularisation_length"]
+    c = build_model(scene(wall=wall), comm).contact
+    assert c.memory is None and c.lagged_normal.size == 0 and "lagged_normal" not in c.CHECKPOINT
 
 
 def test_switched_off_outputs_and_ale_are_absent_from_a_run(shared_tmp, comm):

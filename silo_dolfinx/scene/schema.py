@@ -278,9 +278,10 @@ WALL = Section(
           F("regularisation_length", 0.0, "m", "L of the friction limit's memory (the simplified "
             "Prakash–Clifton law, Cochard & Rice 2000): the limit μ·Ñ follows the contact force N as "
             "dÑ/dt = −(|v_slip| + v*)/L·(Ñ − N). 0 = Coulomb's instantaneous limit (no memory is "
-            "built). Coulomb sliding on a deformable solid is unstable at every wavelength, the "
-            "shortest fastest, so its pulses depend on the mesh; the memory gives the wall a length "
-            "of its own (docs/validation/ch7.md).", lo=0.0, hi=1.0),
+            "built). Above a μ set by the solid, Coulomb sliding on a deformable solid is ill-posed (the "
+            "shorter a disturbance, the faster it grows), so its pulses can depend on the mesh; the memory "
+            "gives the wall a length of its own - and is itself a source of slip-stick "
+            "(docs/validation/ch7.md measures both).", lo=0.0, hi=1.0),
           F("regularisation_speed", 0.01, "m/s", "v* of the memory: the rate at which a sticking "
             "node's limit follows its force is v*/L (read only when regularisation_length > 0).",
             lo=0.0, lo_open=True, hi=100.0)),

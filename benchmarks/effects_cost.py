@@ -45,7 +45,7 @@ EFFECTS = {
     "plasticity": ("elastic", ['material.model="elastic"']),
     "friction memory (L 0.5 mm)": ("Coulomb's instantaneous limit", ["wall.regularisation_length=0.0"]),
     "eq. 7-1 friction": ("Coulomb", ['wall.friction="coulomb"', "wall.mu=0.3"]),
-    "wall friction": ("smooth wall", ['wall.friction="none"']),
+    "wall friction": ("smooth wall", ['wall.friction="none"', "wall.regularisation_length=0.0"]),
     "bulk viscosity": ("off", ["numerics.bulk_viscosity=[0.0, 0.0]"]),
     "ALE every 10 steps": ("every 40", ["ale.frequency=40"]),
     # a Lagrangian mesh of this hopper tangles within 0.07 s (138 steps): its step is the all-on

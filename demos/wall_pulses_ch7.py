@@ -25,8 +25,13 @@
 # decay. They are worst where μ is near what the solid beside the wall can carry on the wall's
 # plane (~0.67 here), where the wall alternates between slip and stick.
 #
+# Last, the wall's friction with a memory (`wall.regularisation_length`, the simplified
+# Prakash-Clifton law): does a limit that follows the normal force over milliseconds, which makes
+# sliding well-posed, make the pulses converge with the mesh? (Docs: "The wall's friction with a
+# memory".)
+#
 #     mpirun -n 2 python demos/wall_pulses_ch7.py --quick    # h 0.05 m, 6 s, 4 variants (~4 min)
-#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (~1 h 50 min; each h/4 ~35)
+#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (34 runs, ~3 h 40 min; each h/4 32-41)
 #     ... --variants mu067 mu05 --reuse                       # measure what is there
 #
 # Results: `results/wall_pulses_ch7[_quick]/VARIANT/`, the table in `table.md` and the figure
@@ -88,6 +93,7 @@ VARIANTS = {
     "mu067_L05_h4": (MEMORY(5e-4), "μ 0.67, memory L 0.5 mm, h / 4"),
     "mu067_L01": (MEMORY(1e-4), "μ 0.67, memory L 0.1 mm"),
     "mu067_L01_h2": (MEMORY(1e-4), "μ 0.67, memory L 0.1 mm, h / 2"),
+    "mu067_L01_h4": (MEMORY(1e-4), "μ 0.67, memory L 0.1 mm, h / 4"),
     "mu055_L05": (["wall.mu=0.55", *MEMORY(5e-4)], "μ 0.55, memory L 0.5 mm"),
     "mu055_L05_h2": (["wall.mu=0.55", *MEMORY(5e-4)], "μ 0.55, memory L 0.5 mm, h / 2"),
     "mu055_L01": (["wall.mu=0.55", *MEMORY(1e-4)], "μ 0.55, memory L 0.1 mm"),
@@ -234,11 +240,20 @@ if comm.rank == 0:
     # sides with Δt halved and on finer meshes (the numerics and solid variants are in the table)
     SWEEP = ("smooth", "mu03", "mu05", "mu055", "mu0575", "mu06", "mu067", "mu08", "mu10")
     SIDES = ("mu055", "mu0575", "mu055_dt05", "mu0575_dt05", "mu05_h2", "mu055_h2", "mu0575_h2", "mu05_h4")
-    MEMORIES = ("mu055", "mu055_h2", "mu055_L05", "mu055_L05_h2", "mu055_L01", "mu055_L01_h2", "mu067", "h2", "h4",
-                "mu067_L05", "mu067_L05_h2", "mu067_L05_h4")
+    # the pulses' size against the element size: Coulomb's limit and the limit's memory
+    FAMILIES = {"μ 0.67, Coulomb": ("mu067", "h2", "h4"), "μ 0.67, L 0.5 mm": ("mu067_L05", "mu067_L05_h2", "mu067_L05_h4"),
+                "μ 0.67, L 0.1 mm": ("mu067_L01", "mu067_L01_h2", "mu067_L01_h4"),
+                "μ 0.55, Coulomb": ("mu055", "mu055_h2", None), "μ 0.55, L 0.5 mm": ("mu055_L05", "mu055_L05_h2", None),
+                "μ 0.55, L 0.1 mm": ("mu055_L01", "mu055_L01_h2", None)}
     fig, ax = plt.subplots(2, 2, figsize=(13, 8))
     ax = ax.ravel()
-    for panel, names in ((ax[1], SWEEP), (ax[2], SIDES), (ax[3], MEMORIES)):
+    for k, (label, names) in enumerate(FAMILIES.items()):
+        got = [(h / 2**j, R[n]["z1"]["std"] / 1e3) for j, n in enumerate(names) if n in R and "failed" not in R[n]]
+        if got:
+            ax[3].plot(*zip(*got), marker="o", ls="-" if "0.67" in label else "--", color=f"C{k % 3}", label=label)
+    ax[3].set(xscale="log", xlabel="element size h (m)", ylabel="std of p_n at 3.6 m over the window (kPa)",
+              title="the pulses' size against the mesh: Coulomb's limit and the limit's memory")
+    for panel, names in ((ax[1], SWEEP), (ax[2], SIDES)):
         shown = [n for n in names if n in R and "failed" not in R[n]]
         for k, n in enumerate(shown):
             g = np.array(R[n]["growth"]) / 1e3
@@ -250,8 +265,7 @@ if comm.rank == 0:
             keep = t < window[0] + 1.5
             ax[0].plot(t[keep], p[keep] / 1e3, label=VARIANTS[n][1])
     ax[0].set(xlabel="time after the opening (s)", ylabel="p_n at 3.6 m (kPa)", title="the upper bin's wall pressure")
-    for a, title in ((ax[1], "the pulses against the wall's μ"), (ax[2], "the threshold's sides: Δt and mesh"),
-                     (ax[3], "Coulomb's limit and the limit's memory, on three meshes")):
+    for a, title in ((ax[1], "the pulses against the wall's μ"), (ax[2], "the threshold's sides: Δt and mesh")):
         a.set(xlabel="time after the opening (s)", ylabel="std of p_n at 3.6 m in 1-s windows (kPa)", title=title)
     for a in ax:
         if a.get_legend_handles_labels()[0]:

@@ -246,6 +246,13 @@ def test_kinetic_friction_above_static():
     assert_names(err, "wall.mu_kinetic", "exceeds mu_static")
 
 
+def test_a_memory_of_friction_on_a_smooth_wall():
+    err = refused(scene_dict(HOPPER, wall={"friction": "none", "regularisation_length": 1e-4}))
+    assert_names(err, "wall.regularisation_length", "smooth wall", "Fix:")
+    sc = load_scene(scene_dict(HOPPER, wall={"friction": "coulomb", "mu": 0.4, "regularisation_length": 1e-4}))
+    assert (sc.wall.regularisation_length, sc.wall.regularisation_speed) == (1e-4, 0.01)  # v*'s default
+
+
 def test_rezone_quality_not_above_the_discharge_floor():
     err = refused(scene_dict(HOPPER, ale={"rezone_min_quality": 0.1}, discharge={"mode": "free", "duration": 1.0}))
     assert_names(err, "ale.rezone_min_quality", "not above discharge.min_mesh_quality = 0.1")

@@ -322,7 +322,7 @@ class ExplicitSolver:
         _move(x, self._x_old, self.nodes.v, self.node_dof, dt)
         kernels.rotate(q.now.sig, q.spin, q.sig_rot)
         self._clock("strain")
-        d_plastic = self.material.update(q.sig_rot, q.deps, q.now.state, q.new.sig, q.new.state, q.dV)
+        d_plastic = self.material.update(q.sig_rot, q.deps, q.now.state, q.new.sig, q.new.state, q.dV, dt)
         kernels.update_density(q.now.rho, q.dvol, dt, self.nq, num.bbar, q.new.rho)
         kernels.cell_average(q.new.rho, q.dV, self.nq, q.cells.rho)
         self._clock("constitutive")

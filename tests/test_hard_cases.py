@@ -55,6 +55,10 @@ CASES = {
                                                                 'discharge.mode="free"', "discharge.duration=0.5"],
                                 "E × 10 (Δt 3.2× smaller) and cohesion 0.01 Pa: the stretched cells over the outlet "
                                 "and at the surface return to the cone's apex"),
+    "viscoplastic_rough": ("bin_hopper_ch7_abrupt", BIN + ["material.relaxation_time=1e-3"],
+                           "the solid's plastic flow delayed by τ 1 ms (Duvaut-Lions: the stress outside the cone "
+                           "by its overstress) against the abrupt corner's μ 0.67 wall, controlled discharge (the "
+                           "overstress, τ G γ̇ ~ 8 kPa at the outlet's 10 s⁻¹, holds a free discharge back)"),
     "non_coaxial_steep": ("steep_hopper_ch8_noncoaxial", ["geometry.element_size=0.06", "discharge.duration=0.5"],
                           "non-coaxial (yield-vertex) plasticity, ch. 8 steep hopper (10°), free discharge"),
     "profile_ledge": ("hopper_ch4", LEDGE, "a user's profile wall with a 0.2-m horizontal ledge (unstructured "

@@ -255,3 +255,80 @@ def test_tension_cutoff_is_off_for_ordinary_cones():
     sig, de = random_states(5000, seed=2)
     out, _, _ = run(mat, sig, de)
     assert np.all(_principal(out) <= mat.cohesion / mat.tan_beta + 1e-10 * np.abs(sig).max())
+
+
+def test_a_viscoplastic_overstress_in_simple_shear_follows_its_closed_form():
+    """Duvaut-Lions around Drucker-Prager (ψ 0, so p stays put and the return only scales the
+    shear): from the yield surface, simple shear at a constant rate γ̇ builds the overstress
+    x = σ_rz − q_y/√3 as G τ γ̇ (1 − e^(−t/τ)). The update is backward Euler of that ODE,
+    x ← (x + G Δγ)/(1 + Δt/τ), which it must match to round-off; against the closed form its
+    error is below Δt/(2τ) · max(t/τ e^(−t/τ)) = 0.18 % at Δt = τ/100 (bar 0.3 %), and the
+    steady overstress is the closed form's exactly. The dissipation it books is the solver's
+    trapezoidal partner, σ_mid : Δε_p."""
+    from silo_dolfinx.materials import Viscoplastic
+
+    law = dp(30.0, 0.0, d=1.0)
+    tau, rate = 1e-3, 2.0
+    mat = Viscoplastic(law, tau)
+    assert mat.state_fields == law.state_fields and mat.strength == law.strength
+    p = 1e4
+    qy = p * law.tan_beta + law.cohesion
+    sig = np.array([[-p, -p, -p, qy / math.sqrt(3.0)]])
+    dt = tau / 100
+    de = np.array([[0.0, 0.0, 0.0, rate * dt]])
+    x_discrete, xs, booked, mids = 0.0, [], 0.0, 0.0
+    state = {"eqps": np.zeros(1)}
+    for _ in range(800):
+        out, new = np.zeros((1, 4)), {"eqps": np.zeros(1)}
+        booked += mat.update(sig, de, state, out, new, np.ones(1), dt)
+        mids += dissipations(law, sig, de, out)[1]
+        sig, state = out, new
+        x_discrete = (x_discrete + law.G * rate * dt) / (1.0 + dt / tau)
+        xs.append((sig[0, 3] - qy / math.sqrt(3.0), x_discrete))
+    x, xd = np.array(xs).T
+    t = dt * np.arange(1, x.size + 1)
+    exact = law.G * tau * rate * (1.0 - np.exp(-t / tau))
+    assert np.allclose(x, xd, rtol=1e-9, atol=1e-9 * qy)
+    assert np.abs(x - exact).max() < 3e-3 * exact[-1]
+    assert x[-1] == pytest.approx(law.G * tau * rate, rel=1e-3)  # 8 τ: e⁻⁸ = 3e-4 short of it
+    assert np.allclose(sig[0, :3], -p, rtol=1e-12) and state["eqps"][0] > 0.0
+    assert booked == pytest.approx(mids, rel=1e-9) and booked > 0.0
+
+
+@pytest.mark.parametrize("law", ["drucker_prager", "recompaction", "non_coaxial", "mohr_coulomb"])
+def test_a_relaxation_time_between_its_limits(law):
+    """τ → 0 is the rate-independent law (to a = 1/(1 + Δt/τ) of the return), τ → ∞ the elastic
+    trial; at any τ the booked dissipation is the trapezoidal σ_mid : Δε_p to round-off (the
+    blend stays inside the energy balance); no Δt, or an elastic law, is refused."""
+    from silo_dolfinx.materials import MohrCoulomb, NonCoaxial, Viscoplastic
+
+    beta, psi = theory.drucker_prager_cone(35.0, 10.0)
+    rate_free = {"drucker_prager": DruckerPrager(E, NU, RHO, beta, psi, 1.0),
+                 "recompaction": DruckerPrager(E, NU, RHO, beta, psi, 1.0, 0.05, True),
+                 "non_coaxial": NonCoaxial(E, NU, RHO, beta, psi, 1.0, 1e5),
+                 "mohr_coulomb": MohrCoulomb(E, NU, RHO, 35.0, 10.0, 1.0)}[law]
+    sig, de = random_states(2000, seed=3)
+    dV, dt = np.ones(len(sig)), 1e-4
+    st_old = {k: np.full(len(sig), 0.01) for k in rate_free.state_fields}
+
+    def update(mat):
+        out, st = np.zeros_like(sig), {k: np.zeros(len(sig)) for k in rate_free.state_fields}
+        return out, st, mat.update(sig, de, st_old, out, st, dV, dt)
+
+    ref, st_ref, _ = update(rate_free)
+    t = trial(rate_free, sig, de)
+    assert np.abs(t - ref).max() > 1e3  # Pa: most points yield
+    for tau, towards, st_towards in ((1e-12, ref, st_ref), (1e6, t, st_old)):
+        out, st, diss = update(Viscoplastic(rate_free, tau))
+        a = 1.0 / (1.0 + dt / tau)
+        gap = min(a, 1.0 - a) * np.abs(t - ref).max()
+        assert np.abs(out - towards).max() <= gap + 1e-9 * np.abs(sig).max()
+        for k in st:
+            assert np.allclose(st[k], st_towards[k], rtol=1e-6, atol=1e-8)  # a · 0.01 of an opening
+    for tau in (1e-4, 1e-3):
+        out, _, diss = update(Viscoplastic(rate_free, tau))
+        assert diss == pytest.approx(dissipations(rate_free, sig, de, out)[1], rel=1e-9)
+    with pytest.raises(ValueError, match="Δt"):
+        Viscoplastic(rate_free, 1e-3).update(sig, de, st_old, np.zeros_like(sig), dict(st_old), dV)
+    with pytest.raises(ValueError, match="no plastic flow"):
+        Viscoplastic(Elastic(E, NU, RHO), 1e-3)

@@ -147,7 +147,7 @@ def test_silo_run_command(shared_tmp, capsys, comm):
 
 
 # ------------------------------------------------------------------ what a scene switches off is not built
-ALL_ON = dict(material=DP | {"model": "non_coaxial", "noncoaxial_modulus": 5.6e4},
+ALL_ON = dict(material=DP | {"model": "non_coaxial", "noncoaxial_modulus": 5.6e4, "relaxation_time": 1e-3},
               wall={"friction": "velocity_dependent", "mu_static": 0.4, "mu_kinetic": 0.3, "decay": 2.0,
                     "regularisation_length": 5e-4},
               loads={"top_surcharge": 1000.0}, fill={"method": "layers", "layers": 2, "duration": 0.2, "damping": 0.3},
@@ -201,6 +201,12 @@ def test_an_effect_that_is_off_is_not_built(comm):
     del wall["regularisation_length"]
     c = build_model(scene(wall=wall), comm).contact
     assert c.memory is None and c.lagged_normal.size == 0 and "lagged_normal" not in c.CHECKPOINT
+    # the solid's relaxation time: a law wrapped in Duvaut-Lions viscoplasticity; none without the key
+    from silo_dolfinx.materials import NonCoaxial, Viscoplastic
+
+    assert isinstance(on.material, Viscoplastic) and isinstance(on.material.law, NonCoaxial)
+    material = {k: v for k, v in ALL_ON["material"].items() if k != "relaxation_time"}
+    assert type(build_model(scene(material=material), comm).material) is NonCoaxial
 
 
 def test_switched_off_outputs_and_ale_are_absent_from_a_run(shared_tmp, comm):

@@ -44,14 +44,22 @@ class Material(ABC):
         return (-1.0, 0.0)
 
     @property
+    def rate_independent(self) -> Material:
+        """The law without any rate dependence (what a stress is projected with when no time
+        passes, as at a K0 start): the law itself but for
+        :class:`~silo_dolfinx.materials.viscoplastic.Viscoplastic`'s."""
+        return self
+
+    @property
     def wave_modulus(self) -> float:
         """P-wave (constrained) modulus λ + 2μ = K + 4G/3 (Pa)."""
         return self.K + 4.0 * self.G / 3.0
 
     @abstractmethod
-    def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
+    def update(self, sig, deps, state_old, sig_new, state_new, dV, dt=None) -> float:
         """New stress and state from the rotated stress and the strain increment; returns the
-        plastic dissipation (J)."""
+        plastic dissipation (J). ``dt``, the step (s), is read only by a rate-dependent law
+        (:class:`~silo_dolfinx.materials.viscoplastic.Viscoplastic`)."""
 
     def state_pair(self, state) -> tuple[np.ndarray, np.ndarray]:
         """(ε̄_p, opening) arrays of a state, as the plastic kernels read them (without

@@ -62,7 +62,7 @@ class DruckerPrager(Material):
 
     noncoaxial = 0.0  # 4G²/(H_nc + 2G): zero for the coaxial law (see non_coaxial.py)
 
-    def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
+    def update(self, sig, deps, state_old, sig_new, state_new, dV, dt=None) -> float:
         return float(_update(sig, deps, self.state_pair(state_old), self.parameters, sig_new,
                              self.state_pair(state_new), dV))
 

@@ -11,7 +11,7 @@ class Elastic(Material):
     plastic = False
     state_fields: dict[str, int] = {}
 
-    def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
+    def update(self, sig, deps, state_old, sig_new, state_new, dV, dt=None) -> float:
         _update(sig, deps, self.K, self.G, sig_new)
         return 0.0
 

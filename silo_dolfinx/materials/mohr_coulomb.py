@@ -77,7 +77,7 @@ class MohrCoulomb(Material):
         self.eqps_critical = max_dilation / r if max_dilation > 0.0 and r > 0.0 else math.inf
         self.apex = cohesion / math.tan(math.radians(friction_angle))  # hydrostatic tension (Pa)
 
-    def update(self, sig, deps, state_old, sig_new, state_new, dV) -> float:
+    def update(self, sig, deps, state_old, sig_new, state_new, dV, dt=None) -> float:
         return float(_update(sig, deps, self.state_pair(state_old), self.parameters, sig_new,
                              self.state_pair(state_new), dV))
 

@@ -245,6 +245,12 @@ MATERIAL = Section(
               "void ratios) to its critical void ratio at silo stresses; 0.036-0.10 spans relative "
               "densities 30-60 % (docs/material.md). 0 = dilation never stops (the "
               "thesis' Drucker-Prager: the density near an outlet then keeps falling).", lo=0.0, hi=1.0),
+            F("relaxation_time", 0.0, "s", "τ of a Duvaut-Lions viscoplasticity around the law: plastic "
+              "flow relaxes the stress towards the yield surface over τ, so a point may lie outside it by an "
+              "overstress τ·C:ε̇_vp. It gives the solid's shear bands a width ~ wave speed × τ (a "
+              "rate-independent solid localises into one element's width, whatever the mesh). 0 = "
+              "rate-independent (nothing built); a granular solid in slow flow has no such time of its own "
+              "(docs/validation/ch7.md, \"A solid with a relaxation time\").", lo=0.0, hi=1.0),
         Key("recompaction", "bool", False, doc="true: volume a point opens at the apex (pulled apart, its "
             "grains out of contact) is closed again without stress by later compression before it carries "
             "load (state field `opening`); false: the opening is permanent, and a cell that is stretched and "
@@ -260,7 +266,7 @@ MATERIAL.variants["mohr_coulomb"] = (
       "(≤ friction_angle; equal = associated).", lo=0.0, hi=60.0),
     F("cohesion", 1.0, "Pa", "c: Mohr-Coulomb cohesion; the pyramid's apex is the hydrostatic "
       "tension c/tan φ, and no principal stress exceeds it.", **NONNEG),
-    *(k for k in MATERIAL.variants["drucker_prager"] if k.name in ("max_dilation", "recompaction")),
+    *(k for k in MATERIAL.variants["drucker_prager"] if k.name in ("max_dilation", "relaxation_time", "recompaction")),
 )
 MATERIAL.variants["non_coaxial"] = MATERIAL.variants["drucker_prager"] + (
     F("noncoaxial_modulus", unit="Pa", doc="H_nc: modulus of the non-coaxial plastic strain rate "

@@ -143,7 +143,7 @@ class SiloModel:
         if m.plastic:  # a K0 state outside the yield surface is first returned onto it (no dissipation booked)
             out = np.empty_like(s.sig)
             state = {k: a.copy() for k, a in s.state.items()}
-            m.update(s.sig.copy(), np.zeros_like(s.sig), s.state, out, state, s.dV)
+            m.rate_independent.update(s.sig.copy(), np.zeros_like(s.sig), s.state, out, state, s.dV)
             s.sig[:] = out
         s.refresh_force()
         # stored without any work done on it: the energy balance starts from it

@@ -30,12 +30,18 @@
 # sliding well-posed, make the pulses converge with the mesh? (Docs: "The wall's friction with a
 # memory".)
 #
+# And the solid's side: a Drucker-Prager solid without a length of its own shears beside the wall
+# in a band one element wide, whatever the element. `material.relaxation_time` τ (Duvaut-Lions
+# viscoplasticity) gives it one, ~ c_s τ; the same μ 0.67 discharge with τ 0.1-2 ms, the 0.25-,
+# 1- and 2-ms ones on h, h/2, h/4, says whether the pulses' drift with the mesh is the solid's. (Docs:
+# "A solid with a relaxation time".)
+#
 #     mpirun -n 2 python demos/wall_pulses_ch7.py --quick    # h 0.05 m, 6 s, 4 variants (~4 min)
-#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (34 runs, ~3 h 40 min; each h/4 32-41)
+#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (45 runs, ~5 h 40 min; each h/4 32-41 min)
 #     ... --variants mu067 mu05 --reuse                       # measure what is there
 #
 # Results: `results/wall_pulses_ch7[_quick]/VARIANT/`, the table in `table.md` and the figure
-# `wall_pulses.png` next to them.
+# `wall_pulses.png` next to them (and, for the relaxation times, `relaxation_time.png`).
 
 # +
 import argparse
@@ -99,6 +105,19 @@ VARIANTS = {
     "mu055_L01": (["wall.mu=0.55", *MEMORY(1e-4)], "μ 0.55, memory L 0.1 mm"),
     "mu055_L05v10": (["wall.mu=0.55", *MEMORY(5e-4, 0.1)], "μ 0.55, memory L 0.5 mm, v* 0.1 m/s"),
     "mu055_L01_h2": (["wall.mu=0.55", *MEMORY(1e-4)], "μ 0.55, memory L 0.1 mm, h / 2"),
+    # the solid with a relaxation time τ (material.relaxation_time, Duvaut-Lions): its shear bands
+    # get a width ~ c_s τ (c_s 22 m/s: 2.2 cm for 1 ms, 4.5 cm for 2 ms) instead of one element's
+    "mu067_vp1": (["material.relaxation_time=1e-3"], "μ 0.67, solid τ 1 ms"),
+    "mu067_vp1_h2": (["material.relaxation_time=1e-3"], "μ 0.67, solid τ 1 ms, h / 2"),
+    "mu067_vp1_h4": (["material.relaxation_time=1e-3"], "μ 0.67, solid τ 1 ms, h / 4"),
+    "mu067_vp2": (["material.relaxation_time=2e-3"], "μ 0.67, solid τ 2 ms"),
+    "mu067_vp2_h2": (["material.relaxation_time=2e-3"], "μ 0.67, solid τ 2 ms, h / 2"),
+    "mu067_vp2_h4": (["material.relaxation_time=2e-3"], "μ 0.67, solid τ 2 ms, h / 4"),
+    "mu067_vp025": (["material.relaxation_time=2.5e-4"], "μ 0.67, solid τ 0.25 ms"),
+    "mu067_vp025_h2": (["material.relaxation_time=2.5e-4"], "μ 0.67, solid τ 0.25 ms, h / 2"),
+    "mu067_vp025_h4": (["material.relaxation_time=2.5e-4"], "μ 0.67, solid τ 0.25 ms, h / 4"),
+    "mu067_vp01": (["material.relaxation_time=1e-4"], "μ 0.67, solid τ 0.1 ms"),
+    "mu067_vp1_dt05": (["material.relaxation_time=1e-3", "numerics.time_step_scale=0.4"], "μ 0.67, solid τ 1 ms, Δt × 0.5"),
 }
 QUICK = ("mu067", "mu05", "mu10", "dt05")
 ap = argparse.ArgumentParser()
@@ -171,8 +190,10 @@ def measure(name):
     t_w, z_w, P = analysis.station_matrix(wall, "station", "p_n")
     _, _, V = analysis.station_matrix(wall, "station", "slip_velocity")
     in_w = (t_w >= t_open + window[0]) & (t_w <= t_open + window[1])
+    ended = stages["discharge"]["t_end"] - t_open  # a run that stopped early (e.g. on mesh quality) says so
     res = {"name": name, "energy": summary["energy_balance_error_max"],
-           "wall_clock": float((out / "wall_clock.txt").read_text()) if (out / "wall_clock.txt").exists() else np.nan}
+           "wall_clock": float((out / "wall_clock.txt").read_text()) if (out / "wall_clock.txt").exists() else np.nan,
+           "label": VARIANTS[name][1] + (f" (ended at {ended:.2f} s)" if ended < window[1] - 1e-6 else "")}
     for k, z in enumerate(z_w):
         p = P[k, in_w]
         sp = analysis.spectrum(t_w[in_w], p)
@@ -181,22 +202,29 @@ def measure(name):
                             f=sp.frequency[band][np.argmax(sp.amplitude[band])], slides=analysis.slip_fraction(V[k, in_w]))
     k36 = int(np.argmin(np.abs(z_w - 3.6)))
     edges = np.arange(0.0, window[1] + 1e-9, 1.0)
+    # the 8-Hz mode's share of the std at 3.6 m and what lies above it (Parseval over a plain,
+    # mean-removed spectrum: std² = Σ amplitude²/2)
+    sp = analysis.spectrum(t_w[in_w], P[k36, in_w], detrend="constant", window=None)
+    res["bands"] = [np.sqrt(0.5 * np.sum(sp.amplitude[(sp.frequency >= lo) & (sp.frequency < hi)] ** 2))
+                    for lo, hi in ((4.0, 15.0), (15.0, np.inf))]
     res["growth"] = [P[k36, (t_w >= t_open + a) & (t_w < t_open + a + 1.0)].std() for a in edges[:-1]]
     pts = read_csv(out / "point_history.csv")
     m = (pts["point"] == 3) & (pts["t"] >= t_open + window[0]) & (pts["t"] <= t_open + window[1])  # wall cell, 3.6 m
     sig = np.stack([pts[c][m] for c in ("stress_rr", "stress_zz", "stress_tt", "stress_rz")], axis=1)
     phi, b = analysis.mobilised_friction_angle(sig)
     mat = sc.material
-    capacity = np.full(len(sig), np.nan)
+    capacity, over = np.full(len(sig), np.nan), np.nan
     if mat.model == "mohr_coulomb":
         at_yield = phi >= YIELD_MARGIN * mat.friction_angle
     else:
         tan_beta = np.tan(np.radians(theory.drucker_prager_cone(mat.friction_angle, mat.dilation_angle, mat.cone)[0]))
         at_yield = pts["q_over_p"][m] >= YIELD_MARGIN * tan_beta
         capacity = analysis.wall_shear_capacity(sig, tan_beta)
+        over = np.nanpercentile(pts["q_over_p"][m] / tan_beta, 95)  # > 1: outside the cone (a viscoplastic overstress)
     res["wall_cell"] = dict(at_yield=float(np.mean(at_yield)), phi=float(np.nanmedian(phi)), b=float(np.nanmedian(b)),
                             shear=float(np.median(np.abs(sig[:, 3]) / np.maximum(-sig[:, 0], 1e-9))),
-                            capacity=float(np.nanmedian(capacity)) if np.isfinite(capacity).any() else np.nan)
+                            capacity=float(np.nanmedian(capacity)) if np.isfinite(capacity).any() else np.nan,
+                            over=float(over))
     res["trace"] = (t_w[in_w] - t_open, P[k36, in_w])
     return res
 
@@ -214,19 +242,20 @@ if comm.rank == 0:
             "after the opening)", "",
             "| variant | p_n at 3.6 m: mean / std (kPa) | its frequency | std at 4.4 m / 2.0 m (kPa) | std at 3.6 m "
             "per 1-s window from the opening (kPa) | wall slides (3.6 m) | wall cell at 3.6 m: at yield / φ_mob / b / "
-            "σ_rz/σ_rr / capacity | 99th pct. at 4.4 m (kPa) | energy error | wall-clock |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
+            "σ_rz/σ_rr / capacity | 99th pct. at 4.4 m (kPa) | energy error | wall-clock | wall cell's q/q_y, 95th pct. | std at 3.6 m in 4-15 Hz / above 15 Hz (kPa) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n, r in R.items():
         if "failed" in r:
-            rows.append(f"| {VARIANTS[n][1]} | {r['failed']} |" + " |" * 8)
+            rows.append(f"| {VARIANTS[n][1]} | {r['failed']} |" + " |" * 10)
             continue
         a, b, c = r["z0"], r["z1"], r["z2"]
         w = r["wall_cell"]
-        rows.append(f"| {VARIANTS[n][1]} | {b['mean'] / 1e3:.2f} / {b['std'] / 1e3:.2f} | {b['f']:.1f} Hz | "
+        rows.append(f"| {r['label']} | {b['mean'] / 1e3:.2f} / {b['std'] / 1e3:.2f} | {b['f']:.1f} Hz | "
                     f"{c['std'] / 1e3:.2f} / {a['std'] / 1e3:.2f} | {' '.join(f'{g / 1e3:.2f}' for g in r['growth'])} | "
                     f"{b['slides']:.0%} | {w['at_yield']:.0%} / {w['phi']:.1f}° / {w['b']:.2f} / {w['shear']:.3f} / "
                     f"{w['capacity']:.3f} | {c['p99'] / 1e3:.2f} | "
-                    f"{r['energy']:.3%} | {r['wall_clock']:.0f} s |")
+                    f"{r['energy']:.3%} | {r['wall_clock']:.0f} s | {w['over']:.2f} | "
+                    f"{r['bands'][0] / 1e3:.2f} / {r['bands'][1] / 1e3:.2f} |")
     ROOT.mkdir(parents=True, exist_ok=True)
     (ROOT / "table.md").write_text("\n".join(rows) + "\n")
     print("\n".join(rows))
@@ -272,4 +301,38 @@ if comm.rank == 0:
             a.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(ROOT / "wall_pulses.png", dpi=110)
+# -
+
+# ## The solid with a relaxation time
+#
+# Against the element size: the std at 3.6 m, its 8-Hz band (4-15 Hz) and the 99th percentile
+# at 4.4 m for the rate-independent solid and τ 0.25, 1 and 2 ms; and the pulses' growth, 1-s
+# window by window, on the three meshes for τ 2 ms (whose h/4 run stopped at 4.3 s).
+
+# +
+SOLIDS = {"rate-independent": ("mu067", "h2", "h4"), "τ 0.25 ms": ("mu067_vp025", "mu067_vp025_h2", "mu067_vp025_h4"),
+          "τ 1 ms": ("mu067_vp1", "mu067_vp1_h2", "mu067_vp1_h4"), "τ 2 ms": ("mu067_vp2", "mu067_vp2_h2", "mu067_vp2_h4")}
+if comm.rank == 0 and any(n in R for names in list(SOLIDS.values())[1:] for n in names):
+    fig, ax = plt.subplots(1, 4, figsize=(17, 4))
+    measures = ((lambda r: r["z1"]["std"], "std of p_n at 3.6 m (kPa)"),
+                (lambda r: r["bands"][0], "its 4-15 Hz part (kPa)"),
+                (lambda r: r["z2"]["p99"], "99th percentile at 4.4 m (kPa)"))
+    for k, (label, names) in enumerate(SOLIDS.items()):
+        done = [(h / 2**j, R[n]) for j, n in enumerate(names) if n in R and "failed" not in R[n] and "ended" not in R[n]["label"]]
+        for a, (get, ylabel) in zip(ax, measures):
+            if done:
+                a.plot([d[0] for d in done], [get(d[1]) / 1e3 for d in done], marker="o", color=f"C{k}", label=label)
+            a.set(xscale="log", xlabel="element size h (m)", ylabel=ylabel)
+    for j, n in enumerate(SOLIDS["τ 2 ms"]):
+        if n in R and "failed" not in R[n]:
+            g = np.array(R[n]["growth"]) / 1e3
+            ax[3].plot(np.arange(len(g)) + 0.5, g, marker="o", color=plt.cm.viridis(j / 2), label=R[n]["label"])
+    ax[3].set(xlabel="time after the opening (s)", ylabel="std of p_n at 3.6 m in 1-s windows (kPa)",
+              title="τ 2 ms on three meshes")
+    ax[0].set_title(f"window {window[0]:g}-{window[1]:g} s after the opening")
+    for a in ax:
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(ROOT / "relaxation_time.png", dpi=110)
 # -

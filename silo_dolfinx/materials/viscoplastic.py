@@ -7,8 +7,9 @@ the band width scales with the wave speed times τ (Needleman 1988, Comput. Meth
 Eng. 67; Sluys & de Borst 1992) - at the price of a rate-dependent strength: the stress may lie
 outside the yield surface by the overstress σ − σ̄ = τ C : ε̇_vp.
 
-Duvaut–Lions (Simo & Hughes 1998, §2.7): ε̇_vp = C⁻¹ : (σ − σ̄)/τ, σ̄ the closest point on the
-yield surface, i.e. what the rate-independent law returns. Backward Euler gives a blend of the
+Duvaut–Lions (Simo & Hughes 1998, §2.7): ε̇_vp = C⁻¹ : (σ − σ̄)/τ, σ̄ the stress returned to the
+yield surface - the closest point for an associated law, the return along the flow rule for a
+non-associated one: what the rate-independent law returns. Backward Euler gives a blend of the
 elastic trial σ_e = σ_n + C : Δε and the law's return σ̄ of it,
 
     σ_n+1 = a σ_e + (1 − a) σ̄,    a = 1/(1 + Δt/τ),

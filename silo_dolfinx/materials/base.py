@@ -183,12 +183,10 @@ def equivalent_strain(p0, p1, p2, p3):
     return math.sqrt(2.0 / 3.0 * ((p0 - pm) ** 2 + (p1 - pm) ** 2 + (p2 - pm) ** 2 + 0.5 * p3 * p3))
 
 
-@numba.njit(cache=True)
-def elastic_trial(sig, de, K, G, out):
-    """out = sig + D : de for one point (isotropic, engineering shear)."""
+@numba.njit(cache=True, inline="always")
+def elastic_trial(sig, de, K, G):
+    """sig + D : de for one point (isotropic, engineering shear), as four components."""
     lam = K - 2.0 * G / 3.0
     tr = de[0] + de[1] + de[2]
-    out[0] = sig[0] + lam * tr + 2.0 * G * de[0]
-    out[1] = sig[1] + lam * tr + 2.0 * G * de[1]
-    out[2] = sig[2] + lam * tr + 2.0 * G * de[2]
-    out[3] = sig[3] + G * de[3]
+    return (sig[0] + lam * tr + 2.0 * G * de[0], sig[1] + lam * tr + 2.0 * G * de[1],
+            sig[2] + lam * tr + 2.0 * G * de[2], sig[3] + G * de[3])

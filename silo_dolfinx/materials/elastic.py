@@ -19,4 +19,4 @@ class Elastic(Material):
 @numba.njit(cache=True)
 def _update(sig, deps, K, G, sig_new):
     for i in range(sig.shape[0]):
-        elastic_trial(sig[i], deps[i], K, G, sig_new[i])
+        sig_new[i, 0], sig_new[i, 1], sig_new[i, 2], sig_new[i, 3] = elastic_trial(sig[i], deps[i], K, G)

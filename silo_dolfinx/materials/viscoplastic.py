@@ -25,7 +25,7 @@ stress grows as G τ γ̇ (1 − e^(−t/τ)) (tests/test_materials.py).
 from __future__ import annotations
 
 from silo_dolfinx._jit_cache import numba
-from silo_dolfinx.materials.base import Material, plastic_strain_and_work
+from silo_dolfinx.materials.base import Material, elastic_trial, plastic_strain_and_work
 
 
 class Viscoplastic(Material):
@@ -76,11 +76,7 @@ def _relax(sig, deps, sig_new, K, G, a, dV):
     c = lam / (3.0 * lam + 2.0 * G)
     diss = 0.0
     for i in range(sig.shape[0]):
-        tr = deps[i, 0] + deps[i, 1] + deps[i, 2]
-        e0 = sig[i, 0] + lam * tr + 2.0 * G * deps[i, 0]
-        e1 = sig[i, 1] + lam * tr + 2.0 * G * deps[i, 1]
-        e2 = sig[i, 2] + lam * tr + 2.0 * G * deps[i, 2]
-        e3 = sig[i, 3] + G * deps[i, 3]
+        e0, e1, e2, e3 = elastic_trial(sig[i], deps[i], K, G)
         s0 = a * e0 + (1.0 - a) * sig_new[i, 0]
         s1 = a * e1 + (1.0 - a) * sig_new[i, 1]
         s2 = a * e2 + (1.0 - a) * sig_new[i, 2]

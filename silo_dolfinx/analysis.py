@@ -124,6 +124,79 @@ def averaged_spectrum(t, x, segments: int = 6, t_start: float | None = None, t_e
     return Spectrum(f, np.sqrt(2.0 * power), float(f[1]))
 
 
+@dataclass
+class ModeShape:
+    ratio: np.ndarray  # complex: each signal's amplitude and phase relative to the reference's in the band
+    coherence: np.ndarray  # γ² in [0, 1]: the share of each signal's band power that moves with the reference
+
+    @property
+    def in_phase(self) -> np.ndarray:
+        """|ratio| cos(phase): the shape as a standing mode draws it (negative: against the reference)."""
+        return self.ratio.real
+
+
+def mode_shape(t, signals, band: tuple[float, float], reference: int = 0, segment: float = 1.0,
+               t_start: float | None = None, t_end: float | None = None) -> ModeShape:
+    """The shape of an oscillation that several signals (rows, sampled at the times ``t``)
+    share in a frequency band: Welch's cross-spectra with the reference row (half-overlapping
+    Hann segments of ``segment`` s, linear detrend), summed over the band's bins,
+    H_k = Σ S_k,ref / Σ S_ref,ref - the transfer from the reference to signal k, whose
+    magnitude is the amplitude relative to the reference and whose angle is the phase - and
+    the coherence γ²_k = |Σ S_k,ref|² / (Σ S_k,k Σ S_ref,ref): 1 where signal k moves with the
+    reference in the band (one mode), ~0 where it does not. An oscillation that drifts in
+    frequency or amplitude within the band is measured whole; what lies outside it is not."""
+    from scipy import signal as sps
+
+    t = np.asarray(t, float)
+    x = np.atleast_2d(np.asarray(signals, float))
+    sel = np.ones(t.size, bool)
+    if t_start is not None:
+        sel &= t >= t_start
+    if t_end is not None:
+        sel &= t <= t_end
+    t, x = t[sel], x[:, sel]
+    fs = (t.size - 1) / (t[-1] - t[0])
+    nperseg = int(round(segment * fs))
+    if nperseg < 8 or t.size < nperseg:
+        raise ValueError(f"need at least one {segment} s segment of 8 samples or more for a mode shape")
+    tu = np.linspace(t[0], t[-1], t.size)
+    x = np.array([np.interp(tu, t, row) for row in x])
+    kw = dict(fs=fs, window="hann", nperseg=nperseg, detrend="linear")
+    f, s_ref = sps.welch(x[reference], **kw)
+    inside = (f >= band[0]) & (f <= band[1])
+    if not inside.any():
+        raise ValueError(f"no frequency bin in the band {band} Hz (resolution {f[1]:.3g} Hz)")
+    p_ref = s_ref[inside].sum()
+    cross = np.array([sps.csd(x[reference], row, **kw)[1][inside].sum() for row in x])  # conj(X_ref) X_k
+    power = np.array([sps.welch(row, **kw)[1][inside].sum() for row in x])
+    return ModeShape(cross / p_ref, np.abs(cross) ** 2 / np.maximum(power * p_ref, np.finfo(float).tiny))
+
+
+@dataclass
+class TravellingWave:
+    speed: float  # m/s, its phase speed along the axis of the positions (+: towards larger ones)
+    growth: float  # 1/m: d ln|amplitude| / dx along that axis (+: it grows towards larger x)
+    phase_residual: float  # rad: rms of the phase about the fitted line (a standing wave's is large)
+
+
+def travelling_wave(x, ratio, frequency: float) -> TravellingWave:
+    """A wave at one frequency from its complex amplitudes at positions x (a
+    :class:`ModeShape`'s ratio along a line): the phase, unwrapped in order of x, fitted by a
+    line, arg H = φ0 − k x, gives the phase speed 2π f/k (positive towards larger x), and
+    ln|H| = c + g x the growth rate g. A travelling wave leaves a phase residual of a few
+    degrees; a standing one, whose phase jumps by π at its nodes, leaves tens."""
+    x = np.asarray(x, float)
+    order = np.argsort(x)
+    x, h = x[order], np.asarray(ratio, complex)[order]
+    if x.size < 3:
+        raise ValueError("need the wave at three positions or more")
+    phase = np.unwrap(np.angle(h))
+    slope, phi0 = np.polyfit(x, phase, 1)
+    growth = np.polyfit(x, np.log(np.abs(h)), 1)[0]
+    residual = float(np.sqrt(np.mean((phase - (phi0 + slope * x)) ** 2)))
+    return TravellingWave(-2.0 * np.pi * frequency / slope if slope != 0 else np.inf, float(growth), residual)
+
+
 LOW_CUTOFF = 1.0  # Hz: the thesis' "< 1 Hz" slip-stick / intermittent-arching fluctuation
 
 

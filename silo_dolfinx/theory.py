@@ -67,6 +67,26 @@ def radial_frequency(youngs_modulus: float, poisson_ratio: float, density: float
     return J1_FIRST_ROOT * confined_wave_speed(youngs_modulus, poisson_ratio, density) / (2.0 * math.pi * radius)
 
 
+J0_FIRST_ROOT = 2.404825557695773  # the first positive zero of the Bessel function J0
+
+
+def axial_shear_frequency(youngs_modulus: float, poisson_ratio: float, density: float, radius: float,
+                          wall: str = "slip") -> float:
+    """Fundamental frequency (Hz) of the vertical shear mode of a long elastic column inside a
+    cylindrical wall of radius R: axisymmetric motion u_z(r) with no radial part is a shear
+    wave, u_z ∝ J0(ω r/c_s), c_s = √(G/ρ), and the wall sets the root. ``wall="slip"``: a wall
+    that slides with an unchanged shear traction (Coulomb sliding, τ = μ p_n, under a motion
+    that leaves p_n alone), σ_rz(R) = 0, so J0'(kR) = −J1(kR) = 0, j_1,1 = 3.8317 - a mode that
+    moves no net momentum (∫ J0(kr) r dr = R J1(kR)/k = 0), the axis against the wall with a
+    node at r = 0.628 R. ``wall="stick"``: u_z(R) = 0, j_0,1 = 2.4048. f = j c_s/(2πR). The ch.
+    7 bin (R 0.35 m, E 2 MPa, ν 0.3, ρ 1529 kg/m³, c_s 22.4 m/s): 39.1 Hz sliding, 24.5 Hz stuck."""
+    _positive(radius=radius)
+    roots = {"slip": J1_FIRST_ROOT, "stick": J0_FIRST_ROOT}
+    if wall not in roots:
+        raise ValueError(f"wall = {wall!r}: say 'slip' (a sliding wall) or 'stick' (a stuck one)")
+    return roots[wall] * shear_wave_speed(youngs_modulus, poisson_ratio, density) / (2.0 * math.pi * radius)
+
+
 def fixed_free_frequency(youngs_modulus: float, poisson_ratio: float, density: float, height: float) -> float:
     """Fundamental frequency (Hz) of a laterally confined column fixed at the base, free on top:
     f_1 = c/(4 H), c the confined wave speed."""

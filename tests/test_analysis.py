@@ -427,3 +427,54 @@ def test_time_averaged_velocity_keeps_to_the_last_mesh(tmp_path):
         files.append(f)
     pos, v = analysis.time_averaged_velocity(files)
     assert pos.shape == (3, 2) and np.allclose(pos, 3.0) and np.allclose(v, [0.0, -2.0])
+
+
+def test_mode_shape_recovers_a_drifting_mode_beside_a_larger_slow_one():
+    """Four signals share an oscillation drifting 33-37 Hz with the amplitudes 1, 0.5, −0.4
+    (against the reference) and 0.8 lagging 30°; each also carries an 8-Hz swing three times
+    larger (outside the band) and a signal of white noise alone rides along. The ratios come back
+    to 0.1 % and 0.1° (measured 1e-8: the band holds the same mode in every row, and a Hann
+    segment of 1 s leaks the 8-Hz swing into 30-40 Hz by less than 1e-6), the coherence of the
+    shared mode above 0.99, of the noise below 0.05 (measured 0.003-0.023 over ten seeds: the
+    band sums ~50 bins of 15 segments)."""
+    rate, T = 200.0, 8.0
+    t = np.arange(0.0, T, 1.0 / rate)
+    rng = np.random.default_rng(3)
+    phase = 2 * np.pi * (35.0 * t + 2.0 / (2 * np.pi * 0.3) * np.sin(2 * np.pi * 0.3 * t))  # 35 ± 2 Hz
+    shape = np.array([1.0, 0.5, -0.4, 0.8 * np.exp(-1j * np.pi / 6)])
+    rows = [np.real(a * np.exp(1j * phase)) + 3.0 * np.cos(2 * np.pi * 8.0 * t + k) for k, a in enumerate(shape)]
+    rows.append(rng.normal(size=t.size))
+    m = analysis.mode_shape(t, rows, (30.0, 40.0))
+    assert np.allclose(np.abs(m.ratio[:4]), np.abs(shape), rtol=1e-3)
+    assert np.allclose(np.angle(m.ratio[:4] / shape), 0.0, atol=np.radians(0.1))
+    assert m.in_phase[2] < 0 < m.in_phase[1]
+    assert np.all(m.coherence[:4] > 0.99) and m.coherence[4] < 0.05
+    with pytest.raises(ValueError, match="band"):
+        analysis.mode_shape(t, rows, (101.0, 110.0))
+
+
+def test_travelling_wave_recovers_speed_direction_and_growth_and_tells_a_standing_wave():
+    """A wave at 35 Hz climbing at 39 m/s and growing as e^{0.5 z} (the ch. 7 bin's, measured)
+    at 15 heights 0.2 m apart, through `mode_shape` with 2 % noise on every record: speed and
+    growth within 0.1 %, phase residual below 0.5° (measured 3e-5, 1.4e-4 and 0.02°: the noise
+    is 1e-4 of the band's power). The same wave running down has the speed's sign flipped; a
+    standing wave cos(kz) cos(ωt) of the same wavelength leaves a residual above 30° (88°: its
+    phase jumps by π at each node)."""
+    rate, T, f, c, g = 200.0, 6.0, 35.0, 39.0, 0.5
+    t = np.arange(0.0, T, 1.0 / rate)
+    z = np.arange(0.8, 3.61, 0.2)
+    k = 2 * np.pi * f / c
+    rng = np.random.default_rng(5)
+    noise = lambda: 0.02 * rng.normal(size=t.size)  # noqa: E731
+    for direction in (1.0, -1.0):
+        rows = [np.exp(g * zi) * np.cos(2 * np.pi * f * t - direction * k * zi) + noise() for zi in z]
+        m = analysis.mode_shape(t, rows, (31.0, 39.0), reference=len(z) - 1)
+        w = analysis.travelling_wave(z, m.ratio, f)
+        assert w.speed == pytest.approx(direction * c, rel=1e-3)
+        assert w.growth == pytest.approx(g, rel=1e-3)
+        assert w.phase_residual < np.radians(0.5)
+    rows = [np.cos(k * zi) * np.cos(2 * np.pi * f * t) + noise() for zi in z]
+    m = analysis.mode_shape(t, rows, (31.0, 39.0), reference=0)
+    assert analysis.travelling_wave(z, m.ratio, f).phase_residual > np.radians(30.0)
+    with pytest.raises(ValueError, match="three"):
+        analysis.travelling_wave(z[:2], m.ratio[:2], f)

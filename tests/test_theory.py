@@ -408,6 +408,24 @@ def test_taper_wave_growth_limits():
     assert np.allclose(theory.taper_wave_growth(x, 1.0, 1e-300, 0.55, 5.0), 1.0 / G, rtol=1e-12)
 
 
+@pytest.mark.parametrize("wall, bessel", [("slip", "j1"), ("stick", "j0")])
+def test_axial_shear_frequency_is_the_first_zero_of_the_wall_condition(wall, bessel):
+    """A long column shearing vertically inside a cylinder: u_z = J0(k r) solves the shear wave
+    equation (k = ω/c_s); a sliding wall (no shear traction) asks J0'(kR) = −J1(kR) = 0, a stuck
+    one J0(kR) = 0. Checked with scipy's Bessel functions at the returned frequency (zero to
+    1e-12), no sign change before it (the fundamental), and the ch. 7 bin's 39.1 / 24.5 Hz."""
+    from scipy import special
+
+    E, nu, rho, R = 2e6, 0.3, 1529.1, 0.35
+    f = theory.axial_shear_frequency(E, nu, rho, R, wall)
+    kR = 2 * math.pi * f * R / theory.shear_wave_speed(E, nu, rho)
+    J = getattr(special, bessel)
+    assert abs(J(kR)) < 1e-12 and np.all(J(np.linspace(1e-6, kR * (1 - 1e-9), 2000)) > 0)
+    assert f == pytest.approx({"slip": 39.08, "stick": 24.53}[wall], abs=0.01)
+    with pytest.raises(ValueError, match="wall"):
+        theory.axial_shear_frequency(E, nu, rho, R, "rough")
+
+
 def test_radial_frequency_is_the_first_zero_of_j1_of_a_dilatational_wave():
     """A long column in a rigid cylinder breathing radially: u_r = J1(k r) solves the
     dilatational wave equation (k = ω/√(M/ρ)); u_r(R) = 0 gives the first zero of J1. Checked

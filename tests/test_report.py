@@ -525,7 +525,11 @@ def test_pulse_travel_finds_a_wave_its_direction_and_speed(synthetic):
     at 200 Hz is biased by under 1 % of a sample, 0.05 ms - 0.3 % of the lag, so 1 %. Reversed,
     the train runs down; in phase (the fixture's own signals) it is said to be so; independent
     noise at every station is no wave at all. (The correlations of the train reach 0.99-0.999:
-    what the 0.3-Hz swell leaves after the filter; 0.98 is asked.)"""
+    what the 0.3-Hz swell leaves after the filter; 0.98 is asked.) Its amplitude along the wall
+    at the dominant frequency: unchanged for the plain train (|growth| < 0.01 /m), and a train
+    growing as e^{0.5 s} (the ch. 5 waves' growth fed by the wall) is read back as +0.50 /m
+    (asked within 0.01: the band sums Welch's cross-spectra, in which a common swell cancels),
+    ×1.8 over the 1.2 m of loaded wall."""
     from silo_dolfinx.report import Report
 
     t = np.arange(0.0, 72.0, 0.005)
@@ -552,6 +556,11 @@ def test_pulse_travel_finds_a_wave_its_direction_and_speed(synthetic):
     assert text.startswith(f"up the wall at {c:.3g} m/s over z 0.18–1.29 m (4 of 4 station pairs correlated ≥ 0.5")
     assert "√(M/ρ) 27.2 m/s, √(G/ρ) 14.5 m/s (2–12 s after the opening, dominant 6 Hz)" in text
     assert (synthetic / "wall_spacetime.png").is_file()
+    growth = float(text.split("its amplitude changes by ")[1].split(" /m")[0])
+    assert abs(growth) < 0.01 and f"phase speed {c:.3g} m/s" in text
+    d, text = history(lambda k, sk: 1200 * np.exp(0.5 * sk) * np.sin(2 * math.pi * 6.0 * (t - sk / c)))
+    growth = float(text.split("its amplitude changes by ")[1].split(" /m")[0])
+    assert growth == pytest.approx(0.5, abs=0.01) and "(×1.8 over the stations" in text
     d, text = history(lambda k, sk: 1200 * np.sin(2 * math.pi * 6.0 * (t + sk / c)))
     assert d["speed"] == pytest.approx(-c, rel=0.01) and text.startswith(f"down the wall at {c:.3g} m/s")
     d, text = history(lambda k, sk: 1200 * np.sin(2 * math.pi * 6.0 * t))

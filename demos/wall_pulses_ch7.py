@@ -36,12 +36,19 @@
 # 1- and 2-ms ones on h, h/2, h/4, says whether the pulses' drift with the mesh is the solid's. (Docs:
 # "A solid with a relaxation time".)
 #
+# What the longer τ leave, a 28-36-Hz oscillation, is measured in space: its shape across the
+# section at 3.6 m against the section's vertical shear mode (`theory.axial_shear_frequency`), and
+# up the hopper and the bin as a travelling wave (`analysis.mode_shape`, `analysis.travelling_wave`):
+# a longitudinal wave from the outlet zone that climbs the fill and grows as the ch. 5 waves do.
+# (Docs: "The faster oscillation".)
+#
 #     mpirun -n 2 python demos/wall_pulses_ch7.py --quick    # h 0.05 m, 6 s, 4 variants (~4 min)
-#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (45 runs, ~5 h 40 min; each h/4 32-41 min)
+#     mpirun -n 2 python demos/wall_pulses_ch7.py            # h 0.04 m, 10 s, every variant (48 runs, ~5 h 50 min; each h/4 32-41 min)
 #     ... --variants mu067 mu05 --reuse                       # measure what is there
 #
 # Results: `results/wall_pulses_ch7[_quick]/VARIANT/`, the table in `table.md` and the figure
-# `wall_pulses.png` next to them (and, for the relaxation times, `relaxation_time.png`).
+# `wall_pulses.png` next to them (and, for the relaxation times, `relaxation_time.png`; for the faster
+# oscillation `fast_mode.md` and `fast_mode.png`).
 
 # +
 import argparse
@@ -118,6 +125,10 @@ VARIANTS = {
     "mu067_vp025_h4": (["material.relaxation_time=2.5e-4"], "μ 0.67, solid τ 0.25 ms, h / 4"),
     "mu067_vp01": (["material.relaxation_time=1e-4"], "μ 0.67, solid τ 0.1 ms"),
     "mu067_vp1_dt05": (["material.relaxation_time=1e-3", "numerics.time_step_scale=0.4"], "μ 0.67, solid τ 1 ms, Δt × 0.5"),
+    # what feeds the climbing wave (the faster oscillation): without wall friction, and with a wall that sticks
+    "smooth_vp1": (['wall.friction="none"', "material.relaxation_time=1e-3"], "smooth wall, solid τ 1 ms"),
+    "mu10_vp1": (["wall.mu=1.0", "material.relaxation_time=1e-3"], "μ 1.0, solid τ 1 ms"),
+    "mu067_vp1_psi40": (["material.dilation_angle=40", "material.relaxation_time=1e-3"], "μ 0.67, solid τ 1 ms, ψ = φ (associated)"),
 }
 QUICK = ("mu067", "mu05", "mu10", "dt05")
 ap = argparse.ArgumentParser()
@@ -131,6 +142,9 @@ variants = args.variants or (QUICK if args.quick else tuple(VARIANTS))
 ROOT = Path("results") / ("wall_pulses_ch7" + ("_quick" if args.quick else ""))
 STATIONS = (2.0, 3.6, 4.4)  # m: mid-bin, the upper bin, near the surface
 R_WALL = 0.35
+RADII = (0.01, 0.05, 0.15, 0.2, 0.25, 0.3)  # m, with 0.1 and the two wall cells: nine radii at 3.6 m
+HEIGHTS = (0.8, 1.0, 1.2, 1.4, 1.6, 1.8, 2.2, 2.4, 2.6, 2.8, 3.0, 3.2, 3.4, 3.8, 4.0, 4.2)  # m, with 2.0, 3.6, 4.4
+HOPPER = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)  # m (the transition at 0.687 m), at r 0.05 m
 
 
 def say(*a):
@@ -145,6 +159,9 @@ def scene_of(name):
     # the interior points: the centre of the cell beside the wall, one further in, and near the
     # axis, at each station's height (a fixed point reports the mean of the cell containing it)
     points = [[r, z] for z in STATIONS for r in (R_WALL - hv / 2, R_WALL - 1.5 * hv, 0.1)]
+    points += [[r, 3.6] for r in RADII]  # across the section at 3.6 m: the shape of the faster mode
+    points += [[0.1, z] for z in HEIGHTS]  # and up the fill at r 0.1 m: its wavelength
+    points += [[0.05, z] for z in HOPPER]  # and in the hopper, near the axis: where it comes from
     return load_scene(SCENE, [f"geometry.element_size={hv}", f"discharge.duration={duration}", 'material.cone="extension"',
                               f"output.stations=[{', '.join(map(str, STATIONS))}]",
                               f"output.points={points}", "output.field_interval=5.0", *sets])
@@ -226,7 +243,53 @@ def measure(name):
                             capacity=float(np.nanmedian(capacity)) if np.isfinite(capacity).any() else np.nan,
                             over=float(over))
     res["trace"] = (t_w[in_w] - t_open, P[k36, in_w])
+    res["mode"] = fast_mode(pts, t_w, P[k36], (t_open + window[0], t_open + window[1]))
+    if res["mode"]:
+        res["mode"]["mu"] = sc.wall.get("mu", 0.0) if sc.wall.friction == "coulomb" else 0.0  # eq. 5-1's (none: smooth)
     return res
+
+
+def fast_mode(pts, t_w, p36, win):
+    """The faster oscillation at 3.6 m: its peak in p_n over 15-45 Hz; across the section the
+    shape of v_z that moves with the point nearest the axis in that peak's band ± 4 Hz
+    (`analysis.mode_shape`; p_n at the wall, resampled onto the points' times, rides along for
+    its coherence); up the fill at r 0.1 m (0.8-3.6 m, relative to 3.6 m) v_z and σ_zz as a
+    travelling wave (`analysis.travelling_wave`). None for runs without these points."""
+    where = {k: (pts["r"][pts["point"] == k][0], pts["z"][pts["point"] == k][0]) for k in np.unique(pts["point"]).astype(int)}
+    section = sorted((r, k) for k, (r, z) in where.items() if abs(z - 3.6) < 1e-9)
+    climb = sorted((z, k) for k, (r, z) in where.items() if (abs(r - 0.1) < 1e-9 and 0.7 < z < 3.6 + 1e-9)
+                   or (abs(r - 0.05) < 1e-9 and z < 0.75))  # the bin at r 0.1 m, the hopper at r 0.05 m
+    if len(section) < 6 or sum(z > 0.75 for z, _ in climb) < 6:  # (runs before 2026-12-07 have none; some no hopper points)
+        return None
+    t = pts["t"][pts["point"] == section[0][1]]
+    keep = (t >= win[0]) & (t <= win[1])
+    inw = (t_w >= win[0]) & (t_w <= win[1])
+    sp = analysis.spectrum(t_w[inw], p36[inw])
+    band = (sp.frequency > 15.0) & (sp.frequency < 45.0)
+    f = float(sp.frequency[band][np.argmax(sp.amplitude[band])])
+    band = (f - 4.0, f + 4.0)
+
+    def series(column, k):
+        return pts[column][pts["point"] == k][keep]
+
+    m = analysis.mode_shape(t[keep], [series("v_z", k) for _, k in section] + [np.interp(t[keep], t_w, p36)], band)
+    r = np.array([r for r, _ in section])
+    z = np.array([z for z, _ in climb])
+    bin_ = z > 0.75
+    up = {}
+    for column in ("v_z", "stress_zz"):
+        mz = analysis.mode_shape(t[keep], [series(column, k) for _, k in climb], band, reference=len(climb) - 1)
+        up[column] = (analysis.travelling_wave(z[bin_], mz.ratio[bin_], f), mz)
+    outlet = (z > 0.05) & (z < 0.45)  # the outlet zone, 0.1-0.4 m
+    spread = emerging = np.nan
+    if outlet.sum() >= 3:
+        spread = np.degrees(np.ptp(np.unwrap(np.angle(up["v_z"][1].ratio[outlet]))))
+        emerging = abs(up["stress_zz"][1].ratio[np.argmin(abs(z - 0.2))] / up["stress_zz"][1].ratio[np.argmin(abs(z - 0.8))])
+    # the lateral ratio the wave carries at the wall (eq. 5-1's k): δσ_rr over δσ_zz in the wall cell, in phase
+    wall = section[-1][1]
+    k = analysis.mode_shape(t[keep], [series("stress_zz", wall), series("stress_rr", wall)], band).in_phase[1]
+    return dict(f=f, r=r, shape=m.in_phase[:-1], coherence=m.coherence[:-1], p_coherence=float(m.coherence[-1]),
+                z=z, up=up, k=float(k), spread=float(spread), emerging=float(emerging))
 
 
 R = {}
@@ -301,6 +364,80 @@ if comm.rank == 0:
             a.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(ROOT / "wall_pulses.png", dpi=110)
+# -
+
+# ## The faster oscillation: a mode of the section, or a wave up the fill?
+#
+# Where the 8-Hz pulses are gone (τ 1-2 ms) what remains oscillates at 28-36 Hz. A long column
+# in a cylinder has an axisymmetric mode with no radial motion: vertical shear, u_z ∝ J0(ω r/c_s)
+# (`theory.axial_shear_frequency`; the solver reproduces it to 0.2 %, tests/test_explicit.py). A
+# wall that slides under Coulomb's limit does not change its shear traction (τ = μ p_n, and the
+# mode leaves p_n alone), so the mode sees a shear-free wall: J1(kR) = 0, 39.1 Hz here, the axis
+# against the wall (the wall at −0.40 of the axis beyond a node at 0.63 R); a stuck wall holds
+# u_z: J0(kR) = 0, 24.5 Hz. Measured: the peak of p_n at 3.6 m in 15-45 Hz, the share of the
+# window the wall slides there, the in-phase shape of v_z across the section at 3.6 m relative to
+# the axis - and, since the section turns out to move as one, the oscillation up the hopper and
+# the bin as a travelling wave (speed, growth against eq. 5-1 with the lateral ratio k the wave
+# carries at the wall, how well its phases fit one wave), and in the outlet zone.
+
+# +
+if comm.rank == 0:
+    modes = {n: r for n, r in R.items() if "failed" not in r and r.get("mode")}
+    if modes:
+        mat = load_scene(ROOT / next(iter(modes)) / "scene.toml").material
+        f_slip, f_stick = (theory.axial_shear_frequency(mat.youngs_modulus, mat.poisson_ratio, mat.density, R_WALL, w)
+                           for w in ("slip", "stick"))
+        k_fill = mat.poisson_ratio / (1.0 - mat.poisson_ratio)  # the elastic fill's lateral ratio of increments
+        c_p = theory.confined_wave_speed(mat.youngs_modulus, mat.poisson_ratio, mat.density)
+        rows = [f"# The faster oscillation at 3.6 m (sliding-wall shear mode {f_slip:.1f} Hz, stuck {f_stick:.1f} Hz; "
+                f"c_p {c_p:.1f} m/s)", "",
+                "| variant | peak of p_n in 15-45 Hz | wall slides (3.6 m) | v_z at the wall cell / at the axis, in phase "
+                "(shear mode: −0.40 sliding, 0.08 stuck) | coherence across the section, least / p_n's | up the fill at r 0.1 m "
+                "(0.8-3.6 m): phase speed | growth of v_z / σ_zz | phase residual | coherence, least | "
+                "the wave's k at the wall (δσ_rr/δσ_zz in phase) | eq. 5-1 with it, 2μk/D | the outlet zone (r 0.05 m, "
+                "z 0.1-0.4 m): spread of v_z's phase / σ_zz at 0.2 m over σ_zz at 0.8 m |",
+                "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        for n, r in modes.items():
+            m = r["mode"]
+            (wv, mv), (ws, ms) = m["up"]["v_z"], m["up"]["stress_zz"]
+            rows.append(f"| {r['label']} | {m['f']:.1f} Hz | {r['z1']['slides']:.0%} | {m['shape'][-1]:+.2f} | "
+                        f"{m['coherence'].min():.2f} / {m['p_coherence']:.2f} | {wv.speed:+.1f} m/s | "
+                        f"{wv.growth:.2f} / {ws.growth:.2f} /m | {np.degrees(wv.phase_residual):.0f}° | "
+                        f"{min(mv.coherence.min(), ms.coherence.min()):.2f} | {m['k']:.2f} | "
+                        + (f"{theory.wensrich_exponent(2 * R_WALL, m['mu'], m['k']):.2f} /m | " if m['k'] > 0 and m['mu'] > 0 else "– | ")
+                        + (f"{m['spread']:.0f}° / {m['emerging']:.2f} |" if np.isfinite(m["spread"]) else "– (no points there) |"))
+        mu_scene = load_scene(SCENE).wall.mu
+        rows += ["", f"Eq. 5-1's growth for the bin (D {2 * R_WALL:g} m, the scene's μ {mu_scene:g}, k = ν/(1 − ν) = "
+                 f"{k_fill:.2f}): {theory.wensrich_exponent(2 * R_WALL, mu_scene, k_fill):.2f} /m."]
+        (ROOT / "fast_mode.md").write_text("\n".join(rows) + "\n")
+        print("\n".join(rows))
+        from scipy.special import j0
+
+        fig, ax = plt.subplots(1, 3, figsize=(17, 4.2))
+        x = np.linspace(0.0, 1.0, 101)
+        ax[0].plot(x, j0(theory.J1_FIRST_ROOT * x), "k-", label=f"shear mode, sliding wall: J0(3.83 r/R), {f_slip:.1f} Hz")
+        ax[0].plot(x, j0(theory.J0_FIRST_ROOT * x), "k--", label=f"shear mode, stuck wall: J0(2.40 r/R), {f_stick:.1f} Hz")
+        # the figure: the solids with τ 1-2 ms, where the faster oscillation is what remains (all, if none ran)
+        drawn = {n: r for n, r in modes.items() if "vp1" in n or "vp2" in n} or modes
+        for k, (n, r) in enumerate(drawn.items()):
+            m = r["mode"]
+            ax[0].plot(m["r"] / R_WALL, m["shape"], marker="o", color=f"C{k}", label=f"{r['label']}: {m['f']:.1f} Hz")
+            mv = m["up"]["v_z"][1]
+            ax[1].plot(m["z"], np.degrees(np.unwrap(np.angle(mv.ratio[::-1]))[::-1]), marker="o", color=f"C{k}",
+                       label=f"{r['label']}: {m['up']['v_z'][0].speed:+.1f} m/s")
+            ax[2].semilogy(m["z"], np.abs(mv.ratio), marker="o", color=f"C{k}",
+                           label=f"{r['label']}: {m['up']['v_z'][0].growth:.2f} /m")
+        ax[0].axhline(0.0, color="0.7", lw=0.5)
+        ax[0].set(xlabel="r / R", ylabel="v_z in the band, in phase with the axis", title="across the section at 3.6 m")
+        for a in ax[1:]:
+            a.axvline(0.687, color="0.6", lw=0.8, ls=":")  # the transition
+        ax[1].set(xlabel="z (m): r 0.05 m in the hopper (left of the dotted transition), 0.1 m in the bin",
+                  ylabel="phase of v_z against 3.6 m (°)", title=f"the phase falls as the wave climbs (c_p {c_p:.1f} m/s)")
+        ax[2].set(xlabel="z (m), as left", ylabel="|v_z| against 3.6 m", title="and the wave grows as it climbs")
+        for a in ax:
+            a.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(ROOT / "fast_mode.png", dpi=110)
 # -
 
 # ## The solid with a relaxation time

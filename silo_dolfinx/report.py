@@ -722,7 +722,8 @@ class Report:
                    else f"{'up' if v > 0 else 'down'} the wall at {abs(v):.3g} m/s")
             text = (f"{how} over {where} ({int(tracked.sum())} of {tracked.size} station pairs correlated ≥ "
                     f"{r.min_correlation:g}, median {np.median(r.correlation[tracked]):.2f}); the solid's elastic "
-                    f"waves: √(M/ρ) {c_p:.3g} m/s, √(G/ρ) {c_s:.3g} m/s ({span}){self._pulse_growth(t, s, p, r.frequency)}")
+                    f"waves: √(M/ρ) {c_p:.3g} m/s, √(G/ρ) {c_s:.3g} m/s ({span})"
+                    + self._pulse_growth(t, s, p, r.frequency))
         self.numbers.append(("the pulses above 1 Hz along the wall", text))
         # the picture: the pulses (p_n less its part below 1 Hz) against height and time over a
         # few periods, with the measured speed and the elastic waves' drawn from the lowest station
@@ -750,7 +751,8 @@ class Report:
                    "runs along the wall as slanted stripes (the lines: the measured speed and the solid's elastic "
                    "waves), a motion of the whole fill as vertical ones, slip-stick as patches.")
 
-    WAVE_RESIDUAL = 20.0  # degrees: a phase residual above this is no travelling wave (tests: 0.02° clean, 88° standing)
+    WAVE_RESIDUAL = 20.0  # degrees: a phase residual above this is no travelling wave (tests: 0.02° clean,
+    #                       88° standing; the ch. 7 wave 4-13°)
 
     def _pulse_growth(self, t, s, p, frequency: float) -> str:
         """How the pulses' amplitude changes along the wall at their dominant frequency (± 20 %,
@@ -764,7 +766,8 @@ class Report:
         except ValueError:
             return ""
         residual = np.degrees(w.phase_residual)
-        phases = (f"phase speed {w.speed:.3g} m/s, phase residual {residual:.0f}°" if residual <= self.WAVE_RESIDUAL else
+        phases = (f"phase speed {w.speed:.3g} m/s, phase residual {residual:.0f}°"
+                  if residual <= self.WAVE_RESIDUAL else
                   f"the phases fit no one travelling wave, residual {residual:.0f}°: a standing wave, or stations "
                   f"too far apart for its wavelength")
         text = (f"; at {frequency:.3g} Hz ± 20 % its amplitude changes by {w.growth:+.2f} /m along the wall "
@@ -773,7 +776,8 @@ class Report:
         mu = sc.wall.get("mu", sc.wall.get("mu_static", 0.0)) if sc is not None else 0.0
         if mu > 0 and sc.geometry.shape in ("flat_bottom", "bin_hopper"):
             k = sc.material.poisson_ratio / (1.0 - sc.material.poisson_ratio)
-            text += f"; eq. 5-1 for the bin, 2μk/D with k = ν/(1 − ν): {theory.wensrich_exponent(2 * sc.geometry.radius, mu, k):.2f} /m"
+            growth = theory.wensrich_exponent(2 * sc.geometry.radius, mu, k)
+            text += f"; eq. 5-1 for the bin, 2μk/D with k = ν/(1 − ν): {growth:.2f} /m"
         return text + ")"
 
     RISE = 0.01  # s a rarefaction front takes to pass a point (eq. 5-17's 5-ms pull and its smearing)

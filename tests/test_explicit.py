@@ -184,8 +184,8 @@ def test_axial_shear_mode_of_a_column_section(comm, integration, wall):
     held radially (u_r = 0: the mode has no radial motion; its σ_zz vanishes, so the section's
     height does not matter), the wall node's u_z free (slip) or held (stick), started with
     v_z = J0(j r/R). The axis oscillates at j c_s/(2πR) within 1 % (Q1 with a lumped mass
-    shifts it by ~−(kh)²/24: −0.04 % stuck, −0.11 % sliding here; measured −0.07 to −0.18 % with either
-    quadrature)."""
+    shifts it by ~−(kh)²/24: −0.04 % stuck, −0.11 % sliding here; measured −0.07 to −0.18 %
+    with either quadrature)."""
     from dolfinx import mesh as dmesh
     from scipy.special import j0
 

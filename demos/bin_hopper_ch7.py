@@ -15,7 +15,7 @@
 # * eq. 7-1 friction (μs 0.67, μk 0.3, ϖ 2; and ϖ 4, μk 0.2, ϖ 10) against constant μ 0.67: the
 #   discharge overpressure on the vertical wall, the effective μ measured from the run
 #   (p_ws/p_wn against the slip speed) against eq. 7-1 — Fig. 7-18; doubled u0 — Figs. 7-19–7-22;
-# * the hopper-wall spectrum against eq. 4-12.
+# * the hopper-wall spectrum against eq. 4-12, and each of its peaks along the wall: does it climb, how fast, does it grow?
 #
 # **Assumptions the thesis leaves open** (also in the scenes): outlet radius 0.1 m, u0 = 1 m/s
 # reached by the eq. 3-14 ramp in 2 s. **The cone**: the scenes read φ 40° on the cone matched
@@ -205,6 +205,24 @@ def measure(name):
     low = (sp.frequency > 0) & (sp.frequency < 1.0)  # the < 1 Hz content: its largest bin
     slow = [float(sp.frequency[low][np.argmax(sp.amplitude[low])])] if low.any() else [np.nan]
     res["spectrum"] = (sp, fast, slow)
+    # each peak along the wall: its shape against the 0.4-m station in the peak's band ± 15 %
+    # (`analysis.mode_shape`), fitted as a travelling wave over the hopper's stations and over the
+    # bin's that move with it (coherence ≥ 0.5): does it climb, how fast, does it grow?
+    t_m, z_m, p_m = analysis.station_matrix(hist, "station", "p_n")
+    s_m = analysis.station_matrix(hist, "station", "s")[2][:, -1]
+    win = (t_m >= t0) & (t_m <= t_end)
+    res["peak_waves"] = []
+    for f in fast:
+        try:  # (a window shorter than the 1-s segments, as --quick's, has no mode shape)
+            shape = analysis.mode_shape(t_m[win], p_m[:, win], (0.85 * f, 1.15 * f),
+                                        reference=int(np.argmin(np.abs(z_m - 0.4))))
+        except ValueError:
+            continue
+        parts = []
+        for part in (z_m < zt, (z_m > zt + 0.05) & (shape.coherence >= 0.5)):
+            parts.append(analysis.travelling_wave(s_m[part], shape.ratio[part], f) if part.sum() >= 3 else None)
+        res["peak_waves"].append((f, *parts, int(((z_m > zt + 0.05) & (shape.coherence >= 0.5)).sum()),
+                                  int((z_m > zt + 0.05).sum())))
     oc = read_csv(out / "outlet.csv")
     mq = read_csv(out / "mesh_quality.csv")
     res["balances"] = (float(np.max(np.abs(oc["mass_balance_error"]))), summary["energy_balance_error_max"],
@@ -296,6 +314,15 @@ if comm.rank == 0:
         frac = float(np.mean(p2 > R["dynamic"]["discharge_profile"][1]))
         t.append(f"| 2 u0 | higher pressures | higher at {100 * frac:.0f} % of the stations | most of the wall | {yes(frac > 0.5)} |")
     ref = next((R[k] for k in ("dynamic", "abrupt") if k in R and "spectrum" in R[k]), None)
+
+    def peak_wave(w):
+        f, hopper, bin_, n, of = w
+
+        def one(tw):
+            return "no fit" if tw is None else f"{tw.speed:+.0f} m/s along it, growth {tw.growth:+.2f} /m, residual " \
+                f"{np.degrees(tw.phase_residual):.0f}°"
+        return f"{f:.2f} Hz in the hopper {one(hopper)}, in the bin ({n} of {of} stations coherent ≥ 0.5) {one(bin_)}"
+
     if ref:
         sp, fast, slow = ref["spectrum"]
         f_fill = theory.longitudinal_frequency(2e6, 0.3, 1529.1, 5.0)
@@ -304,7 +331,8 @@ if comm.rank == 0:
         t.append(f"| hopper-wall spectrum (z 0.4 m) | < 1 Hz and ≈ 13 Hz (theory 14) | peaks {', '.join(f'{f:.2f}' for f in fast)} "
                  f"Hz in 1–40 Hz, the largest bin below 1 Hz at {slow[0]:.2f} Hz (resolution {sp.resolution:.2f} Hz); eq. 4-12: "
                  f"{f_fill:.1f} Hz for the 5-m fill, {f_hop:.1f} Hz for the hopper alone; 14 Hz is eq. 4-12 with "
-                 f"h = {h14:.2f} m, or the quarter wave c/4h of the hopper section, {f_hop / 2:.1f} Hz | "
+                 f"h = {h14:.2f} m, or the quarter wave c/4h of the hopper section, {f_hop / 2:.1f} Hz; along the "
+                 f"wall (against 0.4 m, each peak ± 15 %): {'; '.join(peak_wave(w) for w in ref.get('peak_waves', []))} | "
                  f"within 15 % of 13 Hz | "
                  f"{yes(any(abs(f / 13 - 1) < 0.15 for f in fast))} |")
     if "fill_phi40" in R:

@@ -218,11 +218,11 @@ def measure(name):
                                         reference=int(np.argmin(np.abs(z_m - 0.4))))
         except ValueError:
             continue
-        parts = []
-        for part in (z_m < zt, (z_m > zt + 0.05) & (shape.coherence >= 0.5)):
-            parts.append(analysis.travelling_wave(s_m[part], shape.ratio[part], f) if part.sum() >= 3 else None)
-        res["peak_waves"].append((f, *parts, int(((z_m > zt + 0.05) & (shape.coherence >= 0.5)).sum()),
-                                  int((z_m > zt + 0.05).sum())))
+        in_bin = z_m > zt + 0.05
+        moving = in_bin & (shape.coherence >= 0.5)
+        parts = [analysis.travelling_wave(s_m[part], shape.ratio[part], f) if part.sum() >= 3 else None
+                 for part in (z_m < zt, moving)]
+        res["peak_waves"].append((f, *parts, int(moving.sum()), int(in_bin.sum())))
     oc = read_csv(out / "outlet.csv")
     mq = read_csv(out / "mesh_quality.csv")
     res["balances"] = (float(np.max(np.abs(oc["mass_balance_error"]))), summary["energy_balance_error_max"],

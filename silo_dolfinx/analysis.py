@@ -147,28 +147,21 @@ def mode_shape(t, signals, band: tuple[float, float], reference: int = 0, segmen
     frequency or amplitude within the band is measured whole; what lies outside it is not."""
     from scipy import signal as sps
 
-    t = np.asarray(t, float)
-    x = np.atleast_2d(np.asarray(signals, float))
-    sel = np.ones(t.size, bool)
-    if t_start is not None:
-        sel &= t >= t_start
-    if t_end is not None:
-        sel &= t <= t_end
-    t, x = t[sel], x[:, sel]
+    t, x = _window(t, np.atleast_2d(np.asarray(signals, float)).T, t_start, t_end, 8, "a mode shape")
     fs = (t.size - 1) / (t[-1] - t[0])
     nperseg = int(round(segment * fs))
     if nperseg < 8 or t.size < nperseg:
         raise ValueError(f"need at least one {segment} s segment of 8 samples or more for a mode shape")
     tu = np.linspace(t[0], t[-1], t.size)
-    x = np.array([np.interp(tu, t, row) for row in x])
-    kw = dict(fs=fs, window="hann", nperseg=nperseg, detrend="linear")
-    f, s_ref = sps.welch(x[reference], **kw)
+    x = np.array([np.interp(tu, t, row) for row in x.T])
+    kw = dict(fs=fs, window="hann", nperseg=nperseg, detrend="linear", axis=-1)
+    f, power = sps.welch(x, **kw)
     inside = (f >= band[0]) & (f <= band[1])
     if not inside.any():
         raise ValueError(f"no frequency bin in the band {band} Hz (resolution {f[1]:.3g} Hz)")
-    p_ref = s_ref[inside].sum()
-    cross = np.array([sps.csd(x[reference], row, **kw)[1][inside].sum() for row in x])  # conj(X_ref) X_k
-    power = np.array([sps.welch(row, **kw)[1][inside].sum() for row in x])
+    power = power[:, inside].sum(axis=1)
+    cross = sps.csd(x[reference], x, **kw)[1][:, inside].sum(axis=1)  # conj(X_ref) X_k
+    p_ref = power[reference]
     return ModeShape(cross / p_ref, np.abs(cross) ** 2 / np.maximum(power * p_ref, np.finfo(float).tiny))
 
 

@@ -332,3 +332,43 @@ def test_a_relaxation_time_between_its_limits(law):
         Viscoplastic(rate_free, 1e-3).update(sig, de, st_old, np.zeros_like(sig), dict(st_old), dV)
     with pytest.raises(ValueError, match="no plastic flow"):
         Viscoplastic(Elastic(E, NU, RHO), 1e-3)
+
+
+def test_the_mobilised_strength_is_one_on_every_yield_surface():
+    """Material.mobilised_strength (what shear_zones.csv counts as yield): exactly 1 to
+    round-off for every stress the return puts on the surface - the cone's (coaxial and
+    non-coaxial) and Mohr–Coulomb's pyramid at whatever Lode angle the return lands (its own
+    strength there, not the circumscribing cone's: at triaxial extension the cone's ratio would
+    read (3 − sin φ)/(3 + sin φ) = 0.72 at φ 35°) - below 1 for every admissible trial left
+    untouched, NaN at the apex (no strength), and a viscoplastic overstress above 1."""
+    from silo_dolfinx.materials import MohrCoulomb, NonCoaxial, Viscoplastic
+
+    laws = [dp(30.0, 10.0, d=0.0), NonCoaxial(E, NU, RHO, 30.0, 10.0, 0.0, 5.6e4), MohrCoulomb(E, NU, RHO, 35.0, 10.0, 0.0)]
+    for mat in laws:
+        sig, de = random_states(4000, seed=5, scale=5e4)
+        t = trial(mat, sig, de)
+        out, state = run(mat, sig, de)[:2]
+        mob, mob_t = mat.mobilised_strength(out, np.empty(out.shape[0])), mat.mobilised_strength(t, np.empty(t.shape[0]))
+        yielded = mat.yield_function(t) > 0
+        returned = state["eqps"] > 0  # the non-coaxial law's lowered trial may end inside: not returned
+        apex = ~np.isfinite(mob)  # returned to the apex: p = 0 without cohesion, no strength left
+        assert returned.sum() > 1000 and np.all(np.abs(pq(out[apex])) < 1e-6 * np.abs(sig).max())
+        assert np.allclose(mob[returned & ~apex], 1.0, rtol=0.0, atol=1e-9), mat.name
+        assert np.all(mob[~apex] <= 1.0 + 1e-9), mat.name
+        assert np.all(mob_t[~yielded] <= 1.0 + 1e-12) and np.all(mob_t[yielded & np.isfinite(mob_t)] > 1.0)
+    # Mohr–Coulomb in triaxial extension (σ1 = σ2 > σ3, compression −): on its surface at 1
+    mc = laws[2]
+    s = math.sin(math.radians(35.0))
+    lo = -1e4
+    hi = lo * (1 - s) / (1 + s)  # (hi − lo) = −(hi + lo) sin φ
+    ext = np.array([[hi, lo, hi, 0.0]])
+    assert mc.mobilised_strength(ext, np.empty(1))[0] == pytest.approx(1.0, abs=1e-12)
+    assert mc.yield_function(ext)[0] == pytest.approx(0.0, abs=1e-9)
+    # a viscoplastic point held above the surface reads its overstress
+    law = dp(30.0, 0.0, d=0.0)
+    vp = Viscoplastic(law, 1e-3)
+    p = 1e4
+    over = np.array([[-p, -p, -p, 1.2 * p * law.tan_beta / math.sqrt(3.0)]])
+    assert vp.mobilised_strength(over, np.empty(1))[0] == pytest.approx(1.2, rel=1e-12)
+    with pytest.raises(NotImplementedError, match="no yield surface"):
+        Elastic(E, NU, RHO).mobilised_strength(over, np.empty(1))

@@ -43,6 +43,13 @@ class Material(ABC):
         law without one (the hourglass control's stiffness is then not capped)."""
         return (-1.0, 0.0)
 
+    def mobilised_strength(self, sig: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """The share of its shear strength each of the (n, 4) stresses mobilises, written into
+        ``out`` (n,) and returned: 1 on the yield surface (above 1: a rate-dependent law's
+        overstress), below 1 inside it; NaN at or beyond the apex, where the solid has no shear
+        strength (a separated point). Only a plastic law has one."""
+        raise NotImplementedError(f"the {self.name} law has no yield surface")
+
     @property
     def rate_independent(self) -> Material:
         """The law without any rate dependence (what a stress is projected with when no time

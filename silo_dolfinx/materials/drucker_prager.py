@@ -70,6 +70,11 @@ class DruckerPrager(Material):
     def strength(self) -> tuple[float, float]:
         return (float(self.tan_beta), float(self.cohesion))
 
+    def mobilised_strength(self, sig: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """q / (p tan β + d) (:meth:`Material.mobilised_strength`)."""
+        _cone_mobilised(sig, self.tan_beta, self.cohesion, out)
+        return out
+
     @functools.cached_property
     def parameters(self) -> tuple[float, ...]:
         """The law's constants as its kernel reads them (K, G, tan β, tan ψ, d, c_nc, ε̄_p,c, T,
@@ -84,6 +89,15 @@ class DruckerPrager(Material):
             p, q, *_ = invariants(sig[i])
             out[i] = q - p * self.tan_beta - self.cohesion
         return out
+
+
+@numba.njit(cache=True)
+def _cone_mobilised(sig, tanb, d, out):
+    """out = q / (p tan β + d), NaN where that strength is not positive (at or beyond the apex)."""
+    for i in range(sig.shape[0]):
+        q, p = deviator_q_p(sig[i, 0], sig[i, 1], sig[i, 2], sig[i, 3])[3:]
+        strength = p * tanb + d
+        out[i] = q / strength if strength > 0.0 else np.nan
 
 
 @numba.njit(cache=True, inline="always")

@@ -89,6 +89,13 @@ class MohrCoulomb(Material):
         tan_beta = math.tan(math.radians(beta))
         return (tan_beta, tan_beta * self.apex)
 
+    def mobilised_strength(self, sig: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """(σ_a − σ_k) / (2c cos φ − (σ_a + σ_k) sin φ) of the largest and smallest principal
+        stresses (:meth:`Material.mobilised_strength`): the pyramid's own strength at the
+        stress' Lode angle, not the circumscribing cone's."""
+        _pyramid_mobilised(sig, self.sin_phi, self.parameters[4], out)
+        return out
+
     @functools.cached_property
     def parameters(self) -> tuple[float, ...]:
         """The law's constants as its kernel reads them (K, G, sin φ, sin ψ, 2c cos φ, c cot φ, ε̄_p,c,
@@ -105,6 +112,15 @@ class MohrCoulomb(Material):
         v = np.stack([c + r, c - r, s[:, 2]], axis=1)
         hi, lo = v.max(axis=1), v.min(axis=1)
         return (hi - lo) + (hi + lo) * self.sin_phi - self.parameters[4]
+
+
+@numba.njit(cache=True)
+def _pyramid_mobilised(sig, sin_phi, two_c_cos, out):
+    """out = (a − k) / (2c cos φ − (a + k) sin φ), NaN where that strength is not positive."""
+    for i in range(sig.shape[0]):
+        a, _, k = principal(sig[i, 0], sig[i, 1], sig[i, 2], sig[i, 3])[:3]
+        strength = two_c_cos - (a + k) * sin_phi
+        out[i] = (a - k) / strength if strength > 0.0 else np.nan
 
 
 @numba.njit(cache=True, inline="always")

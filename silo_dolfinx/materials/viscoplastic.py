@@ -51,6 +51,9 @@ class Viscoplastic(Material):
     def strength(self) -> tuple[float, float]:
         return self.law.strength
 
+    def mobilised_strength(self, sig, out):
+        return self.law.mobilised_strength(sig, out)  # above 1: the overstress
+
     def update(self, sig, deps, state_old, sig_new, state_new, dV, dt=None) -> float:
         if dt is None or not dt > 0.0:
             raise ValueError(f"a viscoplastic law needs the step's Δt (got {dt!r})")

@@ -61,6 +61,7 @@ EFFECTS = {
     "histories at 200 Hz": ("at 10 Hz", ["output.history_rate=10.0"]),
     "wall stations (10)": ("none", ["output.stations=[]"]),
     "field output every 0.1 s": ("none", ["output.field_interval=0.0"]),
+    "shear-zone bands (20)": ("none", ["output.zone_bands=0"]),
 }
 
 

@@ -210,19 +210,54 @@ def test_an_effect_that_is_off_is_not_built(comm):
 
 
 def test_switched_off_outputs_and_ale_are_absent_from_a_run(shared_tmp, comm):
-    """A run without ALE, field output and wall stations: no hook ran, nothing of them was
-    written; with ALE but no tracers: no tracers.csv."""
-    off = ALL_ON | OFF["ale"] | {"output": {"history_rate": 100.0, "field_interval": 0.0, "stations": []}}
+    """A run without ALE, field output, wall stations and shear-zone bands: no hook ran, nothing
+    of them was written; with ALE but no tracers: no tracers.csv (the bands back on)."""
+    off = ALL_ON | OFF["ale"] | {"output": {"history_rate": 100.0, "field_interval": 0.0, "stations": [],
+                                            "zone_bands": 0}}
     s = run(load_scene(scene_dict(HOPPER, **off)), shared_tmp / "off", comm, progress_every=1e9)
     comm.barrier()
     assert s["status"] == "completed" and "ale" not in s["effects"] and "ale" not in s["stages"][-1]
     assert not (shared_tmp / "off" / "fields").exists() and not (shared_tmp / "off" / "wall_history.csv").exists()
+    assert not (shared_tmp / "off" / "shear_zones.csv").exists()
     assert (shared_tmp / "off" / "energy.csv").is_file() and (shared_tmp / "off" / "outlet.csv").is_file()
     no_tracers = ALL_ON | {"ale": ALL_ON["ale"] | {"tracer_rows": 0}}
     s = run(load_scene(scene_dict(HOPPER, **no_tracers)), shared_tmp / "notr", comm, progress_every=1e9)
     comm.barrier()
     assert s["stages"][-1]["ale"]["remaps"] > 0 and "tracers" not in s["stages"][-1]
-    assert not (shared_tmp / "notr" / "tracers.csv").exists()
+    assert not (shared_tmp / "notr" / "tracers.csv").exists() and (shared_tmp / "notr" / "shear_zones.csv").is_file()
+
+
+def test_shear_zones_of_a_geostatic_fill_are_its_closed_form(shared_tmp, comm):
+    """shear_zones.csv at the start from the geostatic field (k0 0.5: no shear stress, σ_rr =
+    σ_θθ = ½σ_zz): the bands tile the hopper - their volumes add up to the frustum's π h (R² +
+    R r + r²)/3 to round-off, on one rank or two (each cell counted once, by its owner) - and
+    every point carries q/p = 3(1 − k0)/(1 + 2k0) = 0.75 against the cone matched to φ 30° in
+    compression, tan β = 6 sin φ/(3 − sin φ) = 1.2: its strength 0.625 mobilised, nothing at yield.
+    The 1-Pa cohesion lowers it by 1/(1.2 p) of itself: < 0.2 % below 0.1 m depth (p ≥ 654 Pa).
+    An elastic solid has no yield surface: the stream is not built, no file."""
+    from silo_dolfinx.output import read_csv
+
+    sc = small_scene(fill={"method": "k0", "k0": 0.5}, discharge={"mode": "none"}, store={"duration": 0.01},
+                     output={"history_rate": 100.0, "field_interval": 0.0, "stations": [0.3], "zone_bands": 6})
+    out = shared_tmp / "zones"
+    run(sc, out, comm, progress_every=1e9)
+    comm.barrier()
+    z = read_csv(out / "shear_zones.csv")
+    first = z["t"] == 0.0
+    assert first.sum() == 6 and np.all(np.diff(z["band"][first]) == 1)
+    frustum = np.pi * 0.6 / 3.0 * (0.3**2 + 0.3 * 0.05 + 0.05**2)
+    assert z["volume"][first].sum() == pytest.approx(frustum, rel=1e-9)
+    assert np.all(z["yielded_fraction"][first] == 0.0) and np.all(z["separated_fraction"][first] == 0.0)
+    mobilised = z["mobilised_strength"][first]
+    assert np.all(mobilised <= 0.625 + 1e-12)
+    deep = z["z_high"][first] <= 0.5  # bands wholly 0.1 m or more below the surface
+    assert mobilised[deep] == pytest.approx(np.full(deep.sum(), 0.625), rel=2e-3)
+    elastic = small_scene(material={"model": "elastic", "density": 1000.0, "youngs_modulus": 5e5, "poisson_ratio": 0.3},
+                          fill={"method": "k0"}, discharge={"mode": "none"}, store={"duration": 0.01},
+                          output={"history_rate": 100.0, "field_interval": 0.0, "stations": [0.3]})
+    run(elastic, shared_tmp / "elastic", comm, progress_every=1e9)
+    comm.barrier()
+    assert (shared_tmp / "elastic" / "energy.csv").is_file() and not (shared_tmp / "elastic" / "shear_zones.csv").exists()
 
 
 def test_point_histories_are_the_stress_of_the_cell_holding_the_point(shared_tmp, comm):

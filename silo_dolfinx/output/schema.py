@@ -89,6 +89,22 @@ POINT_HISTORY = CsvFile("point_history.csv", "Stress and velocity at the interio
     C("v_z", "m/s", "vertical velocity (up +): the mean of the cell's four nodes"),
 ))
 
+SHEAR_ZONES = CsvFile("shear_zones.csv", "Where the solid is failing, per height band (output.zone_bands equal "
+                      "bands from the silo's bottom to the fill height; a quadrature point counts in the band of its "
+                      "cell's centroid), at the history rate: instants, summed over the ranks. A point is separated "
+                      "where its mean pressure is below the stress-free level (the weight of a thousandth of the "
+                      "fill) or it is at the apex; the others are loaded.", (
+    T, C("band", "-", "band index (0 = lowest)"),
+    C("z_low", "m", "bottom of the band"), C("z_high", "m", "top of the band"),
+    C("volume", "m³", "volume of solid in the band (full 360°; 0: the band is empty)"),
+    C("separated_fraction", "-", "share of that volume separated (stress-free: a free-fall zone, the loose "
+      "solid under an arch)"),
+    C("yielded_fraction", "-", "share of the loaded volume at yield (mobilised strength ≥ 0.99): the thesis' "
+      "shear failure zone (q/p at its limit, eq. 4-11)"),
+    C("mobilised_strength", "-", "volume mean over the loaded solid of the share of its strength mobilised (q / "
+      "(p tan β + d) on a cone, the pyramid's own on Mohr–Coulomb; above 1: a viscoplastic overstress)"),
+))
+
 OUTLET = CsvFile("outlet.csv", "The outlet during the discharge, at the history rate.", (
     T, C("discharged_mass", "kg", "mass that left (counted by the remap as it crosses the Eulerian outlet; "
          "Lagrangian: the mass of cells below the outlet plane)"),
@@ -180,6 +196,26 @@ PULSE_TRAVEL = CsvFile("pulse_travel.csv", "Written by `silo report`: whether th
     C("speed", "m/s", "ds / lag: the pulses' speed up the wall between the two (negative: down it)"),
 ))
 
+ZONE_FOLLOWING = CsvFile("zone_following.csv", "Written by `silo report`: whether each wall station's slow "
+                         "pressure follows where the solid fails, over the discharge after the station's switch (as "
+                         "wall_dynamics.csv) and between re-meshes: the parts below 1 Hz of p_n and of every height band's yielded and "
+                         "separated shares (shear_zones.csv) - detrended, zero-phase filtered, thinned to 1/8 s - "
+                         "and the band and share whose normalised cross-correlation with p_n is largest in magnitude "
+                         "within ± 1 s, against what the same search finds by chance.", (
+    C("z", "m", "height of the station"), C("t_from", "s", "measured from this long after the opening"),
+    C("t_to", "s", "to this long after it (the longest stretch without a re-mesh: a re-mesh steps both signals)"),
+    C("low_rms", "Pa", "RMS of the station's p_n below 1 Hz"),
+    C("separated", "-", "1: the separated share of the band (stress-free pockets), 0: the share at yield"),
+    C("z_low", "m", "the band's lower edge"), C("z_high", "m", "its upper edge"),
+    C("lag", "s", "how long the band's share follows the pressure (negative: it comes first)"),
+    C("correlation", "-", "the normalised cross-correlation at that lag (negative: the pressure rises as the share "
+      "falls)"),
+    C("chance", "-", "the 95 % quantile of the same search's best |r| with the pressure record circularly shifted "
+      "in time (at least a tenth of it): a |correlation| below it is what unrelated slow signals give"),
+    C("bands_above", "-", "how many band records correlate beyond chance"),
+    C("bands", "-", "how many band records were searched (shares with a whole record that varies)"),
+))
+
 RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a controlled discharge of a column "
                       "(thesis ch. 5): the rarefaction wave launched by the pull, per interior point (output.points; "
                       "the axis in the ch. 5 scenes), before the top's reflection reaches it.", (
@@ -200,8 +236,8 @@ FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a disch
     C("r_fcb", "m", "radius of the boundary (empty: the whole section flows)"),
 ))
 
-FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, OUTLET, MESH_QUALITY, TRACERS,
-                              DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, PULSE_TRAVEL, RAREFACTION,
+FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, SHEAR_ZONES, OUTLET, MESH_QUALITY,
+                              TRACERS, DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, PULSE_TRAVEL, ZONE_FOLLOWING, RAREFACTION,
                               FLOW_CHANNEL)
 
 

@@ -6,6 +6,7 @@ stream             when it exists                                  writes
 energy history     always                                          energy.csv
 wall history       output.stations not empty                       wall_history.csv
 point history      output.points not empty                         point_history.csv
+shear zones        output.zone_bands > 0 and a plastic solid       shear_zones.csv
 wall profiles      always (end of each stage)                      wall_profile_<stage>.csv
 fields             output.field_interval > 0                       fields/ (VTX, snapshots)
 discharge monitor  in a discharge                                  outlet.csv, mesh_quality.csv,
@@ -48,6 +49,8 @@ class Outputs:
             self.history.append(WallHistory(model, results))
         if len(out.points):
             self.history.append(PointHistory(model, results))
+        if out.zone_bands > 0 and model.material.plastic:
+            self.history.append(ShearZones(model, results))
         self.fields = FieldOutput(model, results, out.field_interval) if out.field_interval > 0 else None
         self.monitor = None  # the discharge's outlet and mesh-quality monitor
         self.last_sample = None  # simulated time of the last history sample
@@ -344,6 +347,76 @@ def _add_cell_means(acc, where, stress, nodal, weight):
             d = node_dof[cn[cells[i], a]]
             acc[k, 4] += 0.25 * weight * v[d, 0]
             acc[k, 5] += 0.25 * weight * v[d, 1]
+
+
+class ShearZones:
+    """shear_zones.csv: where the solid is failing, per height band - the share of each band's
+    loaded solid at yield (the law's :meth:`~silo_dolfinx.materials.base.Material.mobilised_strength`
+    ≥ ``YIELDED``), the mean share of its strength mobilised and the share separated - as
+    instants at the history rate (one compiled pass over the quadrature points and one
+    reduction a sample). The bands stand still: the thesis' contours of q/p (Figs. 4-19,
+    8-13) read as a map in height and time, on which a zone that moves is seen moving."""
+
+    YIELDED = 0.99  # on the surface to within the 1 % a viscoplastic point relaxes by in ~τ/100
+    CHECKPOINT = ()
+
+    def __init__(self, model, results: Results):
+        self.model = model
+        n = model.scene.output.zone_bands
+        z = model.sm.mesh.geometry.x[:, 1]
+        bottom = model.sm.comm.allreduce(float(z.min()) if z.size else np.inf, op=MPI.MIN)
+        self.edges = np.linspace(bottom, model.outline.fill_height, n + 1)
+        self._mobilised = np.empty(0)
+        self._sums = np.zeros((4, n))  # volume, separated, yielded and Σ mobilised·dV of the loaded, per band
+        self.csv = results.table(schema.SHEAR_ZONES)
+
+    def sample(self, stage: str) -> None:
+        m = self.model
+        s = m.solver
+        sig = s.sig.reshape(-1, 4)
+        if self._mobilised.size != sig.shape[0]:  # cells were activated (a layer) or the mesh replaced
+            self._mobilised = np.empty(sig.shape[0])
+        m.material.mobilised_strength(sig, self._mobilised)
+        self._sums[:] = 0.0
+        _band_sums(m.sm.mesh.geometry.x, s.active_cell_nodes, (sig, s.dV, s.nq, self._mobilised),
+                   (self.edges, m.p_stress_free, self.YIELDED), self._sums)
+        m.sm.comm.Allreduce(MPI.IN_PLACE, self._sums, op=MPI.SUM)
+        volume, separated, yielded, mobilised = self._sums
+        loaded = volume - separated
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cols = np.column_stack([self.edges[:-1], self.edges[1:], volume, separated / volume, yielded / loaded,
+                                    mobilised / loaded])
+        cols[volume <= 0.0, 3:] = np.nan
+        cols[loaded <= 0.0, 4:] = np.nan
+        self.csv.write(*_indexed_rows(s.t, cols))
+
+
+@numba.njit(cache=True)
+def _band_sums(x, cells, points, bands, out):
+    """out[:, band] += (volume, separated volume, yielded volume, Σ mobilised · dV over the
+    loaded) of the quadrature points of ``cells`` (n, 4 nodes), each in the band of its cell's
+    centroid; points = (σ (n·nq, 4), dV, nq, mobilised strength), bands = (edges, the
+    stress-free pressure, the mobilised strength counted as yield)."""
+    sig, dV, nq, mob = points
+    edges, p_free, yielded = bands
+    n = edges.size - 1
+    z0, dz = edges[0], (edges[-1] - edges[0]) / n
+    for c in range(cells.shape[0]):
+        zc = 0.25 * (x[cells[c, 0], 1] + x[cells[c, 1], 1] + x[cells[c, 2], 1] + x[cells[c, 3], 1])
+        k = int(np.floor((zc - z0) / dz))
+        if k < 0 or k >= n:
+            continue
+        for q in range(nq):
+            i = c * nq + q
+            v = dV[i]
+            out[0, k] += v
+            p = -(sig[i, 0] + sig[i, 1] + sig[i, 2]) / 3.0
+            if p <= p_free or not np.isfinite(mob[i]):
+                out[1, k] += v
+                continue
+            if mob[i] >= yielded:
+                out[2, k] += v
+            out[3, k] += mob[i] * v
 
 
 class _Pinned:

@@ -487,6 +487,12 @@ OUTPUT = Section(
         C("point_motion", ("fixed", "material"), "fixed", "fixed: the points stay where they are (the "
           "thesis'); material: they stay until the outlet opens, then move with the solid (carried "
           "through ALE remaps like tracers; a point that leaves through the outlet has no values after)."),
+        I("zone_bands", 20, doc="Height bands (equal, from the bottom of the silo to the fill height) in "
+          "which shear_zones.csv records at the history rate where the solid is failing: the share of the "
+          "band's loaded solid at yield, the mean share of its strength mobilised, the share separated (at "
+          "the apex) - the thesis' Figs. 4-19/8-13 as a map in height and time, which `silo report` sets "
+          "beside the wall pressure. Instants. 0 = none (the stream is not built; nor for an elastic solid).",
+          lo=0, hi=1000),
         F("field_interval", 0.5, "s", "Simulated time between field outputs (VTX, and the snapshots "
           "`silo report` draws); 0 = no field output at all (the field stream is not built).", **DURATION),
         F("checkpoint_interval", 300.0, "s", "Wall-clock seconds between checkpoints (written at a history sample "

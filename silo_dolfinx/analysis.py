@@ -333,13 +333,10 @@ def pulse_travel(t, s, p, cutoff: float = LOW_CUTOFF, min_correlation: float = 0
     m = max(1, int(max_lag / dt))
     lags, corr = np.zeros(s.size - 1), np.zeros(s.size - 1)
     for i in range(s.size - 1):
-        a, b = x[i], x[i + 1]
-        norm = np.sqrt(np.sum(a * a) * np.sum(b * b))
-        if norm == 0.0:
+        c = _cross_correlation(x[i], x[i + 1], m)
+        if c is None:
             lags[i], corr[i] = np.nan, 0.0
             continue
-        c = np.array([np.sum(a[: a.size - k] * b[k:]) if k >= 0 else np.sum(a[-k:] * b[: b.size + k])
-                      for k in range(-m, m + 1)]) / norm
         j = int(np.argmax(c))
         shift = 0.0
         if 0 < j < c.size - 1:
@@ -347,6 +344,65 @@ def pulse_travel(t, s, p, cutoff: float = LOW_CUTOFF, min_correlation: float = 0
             shift = 0.5 * (c[j - 1] - c[j + 1]) / den if den != 0 else 0.0
         lags[i], corr[i] = (j - m + shift) * dt, c[j]
     return PulseTravel(s[:-1], s[1:], lags, corr, frequency, max_lag, min_correlation)
+
+
+def _cross_correlation(a, b, m: int) -> np.ndarray | None:
+    """Σ a(i) b(i + k) / √(Σa² Σb²) for the lags k = −m … m samples (b following a by k shows at
+    +k); None if either signal is zero."""
+    norm = np.sqrt(np.sum(a * a) * np.sum(b * b))
+    if norm == 0.0:
+        return None
+    return np.array([np.sum(a[: a.size - k] * b[k:]) if k >= 0 else np.sum(a[-k:] * b[: b.size + k])
+                     for k in range(-m, m + 1)]) / norm
+
+
+def slow_part(t, x, cutoff: float = LOW_CUTOFF) -> tuple[np.ndarray, np.ndarray]:
+    """(times, values) of the part of a history below ``cutoff`` as
+    :func:`low_frequency_fluctuation` takes it (resampled uniformly, mean and linear trend
+    removed, the zero-phase filter), away from the filter's end effects and thinned to eight
+    samples per period of the cutoff (it holds nothing faster)."""
+    tu, _, low, inside = _split_low(t, x, None, None, cutoff)
+    step = max(1, int(round((tu.size - 1) / (tu[-1] - tu[0]) / (8.0 * cutoff))))
+    return tu[inside][::step], low[inside][::step]
+
+
+def best_lag(a, b, m: int) -> tuple[int, float]:
+    """(k, r): the lag k within ± m samples (b following a by k: k > 0) where the normalised
+    cross-correlation of two signals is largest in magnitude, and its value (signed); (0, NaN)
+    if either is zero."""
+    c = _cross_correlation(a, b, min(m, a.size // 2))
+    if c is None:
+        return 0, float("nan")
+    j = int(np.argmax(np.abs(c)))
+    return j - (c.size - 1) // 2, float(c[j])
+
+
+def low_correlation(t, a, b, max_lag: float = 1.0, cutoff: float = LOW_CUTOFF) -> tuple[float, float]:
+    """(lag in s, r): how the parts below ``cutoff`` (:func:`slow_part`) of two histories sampled
+    at the times ``t`` follow each other - their normalised cross-correlation r at the lag within
+    ± ``max_lag`` where |r| is largest (a positive lag: b follows a; r < 0: one falls as the
+    other rises), to the thinned sampling's 1/(8 cutoff) s. (0, NaN) if either has no slow part."""
+    ts, slow_a = slow_part(t, a, cutoff)
+    slow_b = slow_part(t, b, cutoff)[1]
+    dt = (ts[-1] - ts[0]) / (ts.size - 1)
+    k, r = best_lag(slow_a, slow_b, max(1, int(round(max_lag / dt))))
+    return k * dt, r
+
+
+def chance_correlation(a, rows, m: int, shifts: int = 40, seed: int = 0, level: float = 0.95) -> float:
+    """How large the best |r| of :func:`best_lag` between ``a`` and any of ``rows`` (each the same
+    length, lags ± m samples) comes out by chance: its ``level`` quantile over ``shifts`` circular
+    shifts of ``a`` by random offsets of at least a tenth of the record (what the search finds
+    in two slow signals that have nothing to do with each other: few independent samples and
+    many rows inflate it)."""
+    rng = np.random.default_rng(seed)
+    n = a.size
+    best = []
+    for shift in rng.integers(max(1, n // 10), n - max(1, n // 10), size=shifts):
+        shifted = np.roll(a, int(shift))
+        best.append(max((abs(r) for r in (best_lag(shifted, row, m)[1] for row in rows) if np.isfinite(r)),
+                        default=0.0))
+    return float(np.quantile(best, level))
 
 
 def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:

@@ -33,6 +33,18 @@ def scene_dict(geometry: dict, **sections) -> dict:
     return d
 
 
+def slow_noise(t, seed: int, cutoff: float = 0.5):
+    """A random signal with nothing above ``cutoff`` Hz at the uniform times ``t``, mean 0 and
+    RMS 1: what the < 1 Hz part of a wall-pressure record or of a shear zone's failing looks
+    like, with no period for a correlation search to alias on."""
+    import numpy as np
+
+    from silo_dolfinx import analysis
+
+    x = analysis.low_pass(t, np.random.default_rng(seed).standard_normal(len(t)), cutoff)
+    return (x - x.mean()) / x.std()
+
+
 def subprocess_env() -> dict:
     """This environment without the MPI launcher's variables, for a test that starts its own
     (possibly mpirun) subprocess from inside an MPI-initialised pytest."""

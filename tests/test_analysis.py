@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import slow_noise
 
 from silo_dolfinx import analysis, theory
 
@@ -478,3 +479,60 @@ def test_travelling_wave_recovers_speed_direction_and_growth_and_tells_a_standin
     assert analysis.travelling_wave(z, m.ratio, f).phase_residual > np.radians(30.0)
     with pytest.raises(ValueError, match="three"):
         analysis.travelling_wave(z[:2], m.ratio[:2], f)
+
+
+def test_slow_part_keeps_what_is_below_1_hz_thinned_to_eight_samples_a_period():
+    """800 sin(2π 0.7 t) + 150 sin(2π 5 t) + a linear drift over 60 s at 200 Hz: the slow part
+    is the 0.7-Hz tone scaled by the zero-phase filter's |H|² = 1/(1 + 0.7⁸) = 0.9455, within 1 %
+    of 800 (the amplitude of a least-squares fit of the tone: exact at any sampling, where the
+    samples 1/8 s apart may miss the peak by 1 − cos(π 0.7/8) = 3.8 %), and nothing else but a
+    straight line (the linear trend removed with the drift is fitted to the tone too, an
+    offset of ~20 Pa, 2.3 %, fitted here with it): the 5-Hz wave gone, residue < 1 % of 800;
+    samples 1/8 s apart away from the filter's end effects."""
+    t = np.arange(0.0, 60.0, 0.005)
+    ts, slow = analysis.slow_part(t, 3000.0 + 20.0 * t + 800.0 * np.sin(2 * math.pi * 0.7 * t)
+                                  + 150.0 * np.sin(2 * math.pi * 5.0 * t))
+    assert np.diff(ts) == pytest.approx(np.full(ts.size - 1, 0.125), rel=1e-9)
+    assert ts[0] >= 1.0 and ts[-1] <= 59.0  # the filter's end effects reach 1/cutoff into the record
+    basis = np.column_stack([np.sin(2 * math.pi * 0.7 * ts), np.cos(2 * math.pi * 0.7 * ts), np.ones_like(ts), ts])
+    coef, *_ = np.linalg.lstsq(basis, slow, rcond=None)
+    assert math.hypot(*coef[:2]) == pytest.approx(800.0 / (1.0 + 0.7**8), rel=0.01)
+    assert np.max(np.abs(slow - basis @ coef)) < 0.01 * 800.0
+
+
+def test_low_correlation_finds_the_delay_and_sign_of_a_following_signal_under_a_fast_wave():
+    """b is −a delayed by 0.3 s, buried under a 5-Hz wave three times a's RMS and white noise:
+    below 1 Hz b follows a by +0.3 s within the thinned sampling's 1/8 s, r < −0.95 (the slow
+    parts differ by the white noise's residue below 1 Hz, 0.2 × √(2·1 Hz/200 Hz) = 2 % of a's
+    RMS, and the filter's end effects); swapped, the lag changes sign."""
+    t = np.arange(0.0, 60.0, 0.005)
+    a = slow_noise(t, seed=1)
+    b = -np.interp(t - 0.3, t, a) + 3.0 * np.sin(2 * math.pi * 5.0 * t) \
+        + 0.2 * np.random.default_rng(2).standard_normal(t.size)
+    lag, r = analysis.low_correlation(t, a, b)
+    assert abs(lag - 0.3) <= 0.125 and r < -0.95
+    lag, r = analysis.low_correlation(t, b, a)
+    assert abs(lag + 0.3) <= 0.125 and r < -0.95
+
+
+def test_chance_correlation_tells_a_real_follower_from_a_search_that_finds_anything():
+    """Searches over ten independent slow rows (0.5-Hz noise, 60 s: about 60 independent samples
+    each, lags ± 1 s) find a best |r| of 0.25-0.4 by chance: the 95 % chance level lies at
+    0.25-0.55 (0.31-0.47 in these 20) and, over 20 independent trials, is exceeded in at most 3 (a binomial count with
+    p = 0.05: P(≥ 4 of 20) = 1.6 %); a row that is the signal delayed lies far above it. A
+    periodic signal correlates with its own shifts: a 0.7-Hz tone's chance level is above 0.7
+    and 1.5 × the noise's - a follower of a tone cannot be told from chance, why the report
+    gives the level beside r."""
+    t = np.arange(0.0, 60.0, 0.005)
+    m = 8  # ± 1 s at 1/8 s
+    levels, exceeded = [], 0
+    for trial in range(20):
+        ts, a = analysis.slow_part(t, slow_noise(t, seed=1000 + trial))
+        rows = np.array([analysis.slow_part(t, slow_noise(t, seed=100 * trial + k))[1] for k in range(10)])
+        levels.append(analysis.chance_correlation(a, rows, m))
+        exceeded += max(abs(analysis.best_lag(a, row, m)[1]) for row in rows) > levels[-1]
+    assert exceeded <= 3 and 0.25 < min(levels) and max(levels) < 0.55
+    assert analysis.best_lag(a, np.roll(a, 3), m) == (3, pytest.approx(1.0, abs=0.02))  # 0.375 s later
+    tone = np.sin(2 * math.pi * 0.7 * ts)
+    tone_level = analysis.chance_correlation(tone, np.array([np.roll(tone, 3)]), m)
+    assert tone_level > max(0.7, 1.5 * np.median(levels))

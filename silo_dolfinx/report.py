@@ -578,6 +578,21 @@ class Report:
         discharge is at least twice as long."""
         return t_open + self.START_UP if t_end - t_open >= 2 * self.START_UP else t_open
 
+    def _after_switch(self, h, k, times) -> tuple[np.ndarray | None, float] | None:
+        """(the samples of station ``k`` to measure the discharge's dynamics on, from when):
+        ``times`` = (opening, start-up's end, end); from the start-up's end or 1 s after the
+        station's switch from the filled to the flowing state (:func:`analysis.switch_time`),
+        whichever is later. None if the discharge has fewer than 16 samples at the station; no
+        samples (None, from when) if less than a quarter of the discharge is left after it."""
+        t_open, t0, t1 = times
+        sel = (h["station"] == k) & (h["t"] >= t_open) & (h["t"] <= t1)
+        if sel.sum() < 16:
+            return None
+        ts = analysis.switch_time(h["t"][sel], h["p_n"][sel], t_open)
+        tk = max(t0, ts + 1.0 / analysis.LOW_CUTOFF) if np.isfinite(ts) and t0 > t_open else t0
+        sel &= h["t"] >= tk
+        return (None if sel.sum() < 16 or t1 - tk < 0.25 * (t1 - t_open) else sel), tk
+
     def wall_dynamics(self) -> None:
         """Why the pressure pulses, per station over the discharge after its start-up
         (``START_UP`` s, when the discharge is at least twice as long, and 1 s after the
@@ -598,13 +613,11 @@ class Report:
         t0 = self._settled(t_open, t1)
         rows = []
         for k in np.unique(h["station"]):
-            sel = (h["station"] == k) & (h["t"] >= t_open) & (h["t"] <= t1)
-            if sel.sum() < 16:
+            window = self._after_switch(h, k, (t_open, t0, t1))
+            if window is None:
                 continue
-            ts = analysis.switch_time(h["t"][sel], h["p_n"][sel], t_open)
-            tk = max(t0, ts + 1.0 / analysis.LOW_CUTOFF) if np.isfinite(ts) and t0 > t_open else t0
-            sel &= h["t"] >= tk
-            if sel.sum() < 16 or t1 - tk < 0.25 * (t1 - t_open):  # too little after the switch to measure
+            sel, tk = window
+            if sel is None:  # too little after the switch to measure
                 rows.append([int(k), float(np.mean(h["z"][h["station"] == k])), tk - t_open]
                             + [np.nan] * (len(WALL_DYNAMICS.columns) - 3))  # every measured column NaN
                 continue
@@ -750,6 +763,196 @@ class Report:
         self._save(fig, "wall_spacetime.png", "The wall pressure's pulses (above 1 Hz) against height and time: a wave "
                    "runs along the wall as slanted stripes (the lines: the measured speed and the solid's elastic "
                    "waves), a motion of the whole fill as vertical ones, slip-stick as patches.")
+
+    ZONE_LAG = 1.0  # s: how far apart in time a band's failing and the wall's slow pulse are looked for
+
+    def shear_zones(self) -> None:
+        """Where the solid fails during the discharge, and whether the wall's slow pulses follow
+        it (shear_zones.csv): the share of each height band's loaded solid at yield mapped in
+        height and time - the thesis' contours of q/p (Figs. 4-19, 8-13) as one picture, where a
+        zone that moves is seen moving - and the share separated beside it; after the start-up,
+        the band whose failing swings most below 1 Hz, and (:meth:`_zone_following`) whether
+        the < 1 Hz part of p_n follows any band's failing: the thesis' account of the slow
+        fluctuation, "each slip corresponds to a reduced stress ratio in the arching shear
+        zone", as a number with its chance level."""
+        import matplotlib.pyplot as plt
+
+        zones = read_csv(self.folder / "shear_zones.csv")
+        t_open, t1 = self._stage_times().get("discharge", (None, None))
+        if zones is None or t_open is None or not t1 > t_open:
+            self.missing.append("shear zones (needs a discharge and shear_zones.csv: output.zone_bands > 0 and a "
+                                "plastic solid)")
+            return
+        n = int(zones["band"].max()) + 1
+        grid = {k: zones[k].reshape(-1, n).T for k in ("t", "volume", "separated_fraction", "yielded_fraction")}
+        t = grid["t"][0]
+        win = (t >= t_open) & (t <= t1)
+        if win.sum() < 16:
+            self.missing.append("shear zones (fewer than 16 discharge samples)")
+            return
+        edges = np.append(zones["z_low"][:n], zones["z_high"][n - 1])
+        zc = 0.5 * (edges[:-1] + edges[1:])
+        t, yielded, separated = t[win], grid["yielded_fraction"][:, win], grid["separated_fraction"][:, win]
+        loaded = grid["volume"][:, win] * (1.0 - separated)
+        share = np.nansum(yielded * loaded) / np.nansum(np.where(np.isfinite(yielded), loaded, 0.0))
+        per_band = np.nanmean(yielded, axis=1) if np.any(np.isfinite(yielded)) else np.full(n, np.nan)
+        self.numbers.append(("shear zones: the loaded solid at yield over the discharge (the band mean ranging)",
+                             f"{100 * share:.0f} % ({100 * np.nanmin(per_band):.0f} % at z {zc[np.nanargmin(per_band)]:.2f} "
+                             f"m to {100 * np.nanmax(per_band):.0f} % at z {zc[np.nanargmax(per_band)]:.2f} m)"))
+        front = self._failure_front(t - t_open, edges, yielded)
+        settled = t >= self._settled(t_open, t1)
+        whole = np.all(np.isfinite(yielded[:, settled]), axis=1) & (np.ptp(yielded[:, settled], axis=1) > 0)
+        follow = None
+        if settled.sum() >= 16 and t[settled][-1] - t[settled][0] >= 4.0 / analysis.LOW_CUTOFF and whole.any():
+            ts = t[settled]
+            swing = np.array([analysis.low_frequency_fluctuation(ts, yielded[k, settled]) if whole[k] else (np.nan, np.nan)
+                              for k in range(n)])
+            k = int(np.nanargmax(swing[:, 0]))
+            self.numbers.append(("shear zones: the band failing most intermittently below 1 Hz",
+                                 f"z {edges[k]:.2f}–{edges[k + 1]:.2f} m, its yielded share swinging by RMS "
+                                 f"{100 * swing[k, 0]:.1f} % {self._low_frequency(swing[k, 1], ts[-1] - ts[0])}"))
+            follow = self._zone_following(t, edges, {"yielded": yielded, "separated": separated},
+                                          (t_open, self._settled(t_open, t1), t1))
+        else:
+            self.missing.append("shear zones below 1 Hz (needs 4 s of discharge after the start-up)")
+        fig, axes = plt.subplots(3 if follow else 2, 1, figsize=(10, 9 if follow else 6.5), sharex=True)
+        t_edges = np.concatenate([[t[0]], 0.5 * (t[1:] + t[:-1]), [t[-1]]]) - t_open  # each sample's span
+        for ax, values, label in ((axes[0], yielded, "share of the loaded solid at yield"),
+                                  (axes[1], separated, "share separated (stress-free)")):
+            mesh = ax.pcolormesh(t_edges, edges, values, cmap="magma", vmin=0.0, vmax=1.0, shading="flat")
+            fig.colorbar(mesh, ax=ax, label=label)
+            ax.set_ylabel("height z (m)")
+        if front is not None:
+            axes[0].plot(front[0], front[1], "o", color="c", ms=3, label=f"failure front ({100 * self.FRONT_ONSET:.0f} % "
+                         "of a band at yield)")
+            axes[0].legend(fontsize=7, loc="lower right")
+        if follow:
+            ax, (name, z_station, kind, k, lag, r, slow) = axes[2], follow
+            ax.plot(slow[0] - t_open, slow[1] / 1e3, "k-", lw=0.9, label=f"p_n at {name}, < 1 Hz")
+            ax.set_ylabel("p_n below 1 Hz (kPa)")
+            twin = ax.twinx()
+            twin.plot(slow[0] - t_open, 100 * slow[2], "C1-", lw=0.9,
+                      label=f"{kind} share, z {edges[k]:.2f}–{edges[k + 1]:.2f} m, < 1 Hz (r {r:+.2f} at lag {lag:+.2f} s)")
+            twin.set_ylabel(f"{kind} share below 1 Hz (%)")
+            for a in (ax, twin):
+                a.legend(fontsize=7, loc="upper left" if a is ax else "upper right")
+            axes[0].axhline(z_station, color="w", lw=0.8, ls="--")
+        axes[-1].set_xlabel("time after opening (s)")
+        self._save(fig, "shear_zones.png", "Where the solid fails, against height and time: the share of each band's "
+                   "loaded solid at yield (the thesis' shear failure zone, q/p at its limit) and the share separated; "
+                   + ("below: the slow part of the wall pressure at the station (dashed line above) whose link to a "
+                      "band's failing or separating beats its chance level by the most (else where it is largest) "
+                      "beside that band's share (zone_following.csv: every station)." if follow else ""))
+
+    FRONT_ONSET = 0.1  # a band has failed once a tenth of its loaded solid is at yield: the bands above the
+    #                    front are elastic (0 exactly), those it has passed flicker around 0.1-0.6 (ch. 4 runs)
+
+    def _failure_front(self, t, edges, yielded):
+        """How the failure that starts at the outlet climbs the fill after the opening - the
+        thesis' "switch of the stress state propagated from the bottom to the top" (§4.3.1): the
+        time (after the opening, ``t``) by which each band not failed at the opening, and every
+        band below it, has had ``FRONT_ONSET`` of its loaded solid at yield
+        (:func:`analysis.first_time_reaching`), with the number for report.md (its speed fitted
+        over all of it and over its first and last thirds, against the solid's confined wave speed: a front carried by the opening's stress
+        wave would climb at it); (times, band centres) for the figure, or None where fewer than
+        three bands are reached."""
+        zc = 0.5 * (edges[:-1] + edges[1:])
+        fresh = np.isfinite(yielded[:, 0]) & (yielded[:, 0] < self.FRONT_ONSET)
+        arrival = np.array([analysis.first_time_reaching(t, np.nan_to_num(yielded[k]), self.FRONT_ONSET)
+                            if fresh[k] else np.nan for k in range(zc.size)])
+        reached = np.isfinite(arrival)
+        if reached.sum() < 3:
+            return None
+        ta, za = arrival[reached], zc[reached]
+        order = np.argsort(za)
+        ta, za = np.maximum.accumulate(ta[order]), za[order]  # passed once every band below it has failed
+        third = max(2, za.size // 3)
+        with np.errstate(divide="ignore"):  # a stretch failing at once climbs infinitely fast
+            speeds = [1.0 / np.polyfit(z, tt, 1)[0] for z, tt in ((za, ta), (za[:third], ta[:third]),
+                                                                  (za[-third:], ta[-third:]))]
+        m = self.scene.material if self.scene is not None else None
+        c_p = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density) if m is not None else np.nan
+        self.numbers.append(("shear zones: the failure front after the opening (a tenth of a band at yield)",
+                             f"reaches z {za[0]:.2f} m at {ta[0]:.3g} s and z {za[-1]:.2f} m at {ta[-1]:.3g} s "
+                             f"({int(reached.sum())} of {int(fresh.sum())} bands elastic at the opening; passed once every "
+                             f"band below has failed): climbing at {speeds[0]:.3g} m/s over all, {speeds[1]:.3g} m/s in its lowest third and "
+                             f"{speeds[2]:.3g} m/s in its highest (the confined wave speed √(M/ρ): {c_p:.3g} m/s)"))
+        return ta, za
+
+    def _zone_following(self, t, edges, shares: dict, times):
+        """Whether the < 1 Hz part of p_n at each wall station, after its switch
+        (:meth:`_after_switch`) and between re-meshes (the longest stretch), follows the slow part of a band's failing or separating (the
+        ``shares`` of each band with a whole record there): the best |r| of
+        :func:`analysis.best_lag` within ± ``ZONE_LAG`` s over the bands and both shares, against
+        its chance level (:func:`analysis.chance_correlation`) - zone_following.csv, and the
+        numbers for report.md (the station where the slow part is largest, the thesis' concern,
+        and the stations whose link beats chance). For the figure: (station's name, height,
+        share, band, lag, r, (times, the two slow parts)) of the station beating chance by the
+        most, else of the largest; None without a station with a long enough record."""
+        from silo_dolfinx.output.schema import ZONE_FOLLOWING
+
+        h = read_csv(self.folder / "wall_history.csv")
+        if h is None:
+            return None
+        remeshed = [r["t"] for st in self.summary.get("stages", []) if st["name"] == "discharge"
+                    for r in st.get("rezones", [])]
+        found = []
+        for k in np.unique(h["station"]):
+            window = self._after_switch(h, k, times)
+            if window is None or window[0] is None:
+                continue
+            sel, tk = window
+            # a re-mesh steps the stress field - the outlet zone's separated pockets most - and the
+            # pressures with it: a shared step that no circular shift reproduces (ch. 4's 60-s
+            # run: the lowest station's r -0.89 with the outlet band's separated share came from
+            # the steps). The longest stretch between re-meshes is searched.
+            cuts = np.array([tk, *[x for x in remeshed if tk < x < times[2]], times[2]])
+            i = int(np.argmax(np.diff(cuts)))
+            tk, tz = cuts[i], cuts[i + 1]
+            sel = sel & (h["t"] >= tk) & (h["t"] <= tz)
+            inside = (t >= tk) & (t <= tz)
+            rows = [(kind, b) for kind, v in shares.items() for b in range(v.shape[0])
+                    if np.all(np.isfinite(v[b, inside])) and np.ptp(v[b, inside]) > 0]
+            if inside.sum() < 16 or t[inside][-1] - tk < 4.0 / analysis.LOW_CUTOFF or not rows:
+                continue
+            tw = t[inside]
+            ts, slow_p = analysis.slow_part(tw, np.interp(tw, h["t"][sel], h["p_n"][sel]))
+            slow = np.array([analysis.slow_part(tw, shares[kind][b, inside])[1] for kind, b in rows])
+            m = max(1, int(round(self.ZONE_LAG * (ts.size - 1) / (ts[-1] - ts[0]))))
+            pairs = [analysis.best_lag(slow_p, row, m) for row in slow]
+            j = int(np.nanargmax([abs(r) for _, r in pairs]))
+            chance = analysis.chance_correlation(slow_p, slow, m)
+            found.append(dict(z=float(np.mean(h["z"][sel])), name=self._station(k, float(np.mean(h["z"][sel]))),
+                              start=tk - times[0], end=tz - times[0], rms=analysis.low_frequency_fluctuation(h["t"][sel], h["p_n"][sel])[0],
+                              kind=rows[j][0], band=rows[j][1], lag=pairs[j][0] * (ts[-1] - ts[0]) / (ts.size - 1),
+                              edge=abs(pairs[j][0]) >= m, r=pairs[j][1], chance=chance, rows=len(rows),
+                              above=sum(1 for _, x in pairs if abs(x) > chance), slow=(ts, slow_p, slow[j])))
+        if not found:
+            return None
+        self._table(ZONE_FOLLOWING, [[f["z"], f["start"], f["end"], f["rms"], int(f["kind"] == "separated"), edges[f["band"]],
+                                      edges[f["band"] + 1], f["lag"], f["r"], f["chance"], f["above"], f["rows"]]
+                                     for f in found])
+
+        def link(f) -> str:
+            edge = " - at the search's edge: no peak within it" if f["edge"] else ""
+            order = "in step" if f["lag"] == 0 else "the band follows" if f["lag"] > 0 else "the band leads"
+            return (f"the {f['kind']} share of z {edges[f['band']]:.2f}–{edges[f['band'] + 1]:.2f} m: r {f['r']:+.2f} "
+                    f"at a lag of {f['lag']:+.2f} s{edge} ({order}); chance level |r| {f['chance']:.2f}")
+
+        largest = max(found, key=lambda f: f["rms"])
+        self.numbers.append((f"shear zones: the < 1 Hz part of p_n where it is largest, at {largest['name']} (RMS "
+                             f"{largest['rms']:.3g} Pa {largest['start']:.3g}–{largest['end']:.3g} s after the opening"
+                             + (", the longest stretch without a re-mesh" if remeshed else "") + "), follows most closely",
+                             f"{link(largest)} (95 % of the same search against the wall's record shifted in time), "
+                             f"exceeded at {largest['above']} of {largest['rows']} band records"))
+        beaten = [f for f in found if abs(f["r"]) > f["chance"]]
+        strongest = max(beaten, key=lambda f: abs(f["r"]) - f["chance"]) if beaten else largest
+        self.numbers.append(("shear zones: wall stations whose < 1 Hz pressure follows a band's failing or "
+                             "separating beyond chance (r < 0: the pressure rises as the share falls)",
+                             f"{len(beaten)} of {len(found)} (chance alone: 1 in 20)" + (f"; by the widest margin {strongest['name']}, {link(strongest)}"
+                                                                 if beaten else "")))
+        f = strongest
+        return f["name"], f["z"], f["kind"], f["band"], f["lag"], f["r"], f["slow"]
 
     WAVE_RESIDUAL = 20.0  # degrees: a phase residual above this is no travelling wave (tests: 0.02° clean,
     #                       88° standing; the ch. 7 wave 4-13°)
@@ -1210,7 +1413,7 @@ class Report:
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,
                      self.design_pressures,
-                     self.wall_dynamics, self.pulse_travel, self.rarefaction, self.outlet, self.flow_channel,
+                     self.wall_dynamics, self.pulse_travel, self.shear_zones, self.rarefaction, self.outlet, self.flow_channel,
                      self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields,
                      *([self.movie] if self.with_movie else [])):
             try:

@@ -405,6 +405,33 @@ def chance_correlation(a, rows, m: int, shifts: int = 40, seed: int = 0, level: 
     return float(np.quantile(best, level))
 
 
+FRONT_ONSET = 0.1  # a band has failed once a tenth of its loaded solid is at yield: the bands above the front
+#                   are elastic (0 exactly), those it has passed flicker around 0.1-0.6 (the ch. 4 runs)
+
+
+def failure_front(t, z, shares, onset: float = FRONT_ONSET) -> tuple[np.ndarray, np.ndarray, int]:
+    """How a failure climbs through height bands (centres ``z``; ``shares`` (bands, samples):
+    each band's share at yield at the times ``t``): (times, heights) at which the front passes
+    the bands that were below ``onset`` at t[0] and reach it - a band is passed once it and every
+    such band below it have reached it (:func:`first_time_reaching`) - and how many bands were
+    below ``onset`` at t[0]. Bands without a record at t[0] (NaN: empty) are left out."""
+    shares = np.asarray(shares, float)
+    fresh = np.isfinite(shares[:, 0]) & (shares[:, 0] < onset)
+    arrival = np.array([first_time_reaching(t, np.nan_to_num(shares[k]), onset) if fresh[k] else np.nan
+                        for k in range(shares.shape[0])])
+    reached = np.isfinite(arrival)
+    order = np.argsort(np.asarray(z, float)[reached])
+    return np.maximum.accumulate(arrival[reached][order]), np.asarray(z, float)[reached][order], int(fresh.sum())
+
+
+def front_speed(t, z) -> float:
+    """The speed (m/s, positive up) of a front passing the heights ``z`` at the times ``t``:
+    the inverse of the least-squares slope dt/dz (inf where the heights fail at once)."""
+    if np.ptp(np.asarray(t, float)) == 0.0:
+        return float("inf")
+    return float(1.0 / np.polyfit(np.asarray(z, float), np.asarray(t, float), 1)[0])
+
+
 def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:
     """When a station's wall pressure has switched from the filled state to the flowing one: the
     first time after ``t_open`` that its part below ``cutoff`` (zero-phase 4th-order

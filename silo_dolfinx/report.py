@@ -823,7 +823,7 @@ class Report:
             fig.colorbar(mesh, ax=ax, label=label)
             ax.set_ylabel("height z (m)")
         if front is not None:
-            axes[0].plot(front[0], front[1], "o", color="c", ms=3, label=f"failure front ({100 * self.FRONT_ONSET:.0f} % "
+            axes[0].plot(front[0], front[1], "o", color="c", ms=3, label=f"failure front ({100 * analysis.FRONT_ONSET:.0f} % "
                          "of a band at yield)")
             axes[0].legend(fontsize=7, loc="lower right")
         if follow:
@@ -844,39 +844,28 @@ class Report:
                       "band's failing or separating beats its chance level by the most (else where it is largest) "
                       "beside that band's share (zone_following.csv: every station)." if follow else ""))
 
-    FRONT_ONSET = 0.1  # a band has failed once a tenth of its loaded solid is at yield: the bands above the
-    #                    front are elastic (0 exactly), those it has passed flicker around 0.1-0.6 (ch. 4 runs)
-
     def _failure_front(self, t, edges, yielded):
         """How the failure that starts at the outlet climbs the fill after the opening - the
-        thesis' "switch of the stress state propagated from the bottom to the top" (§4.3.1): the
-        time (after the opening, ``t``) by which each band not failed at the opening, and every
-        band below it, has had ``FRONT_ONSET`` of its loaded solid at yield
-        (:func:`analysis.first_time_reaching`), with the number for report.md (its speed fitted
-        over all of it and over its first and last thirds, against the solid's confined wave speed: a front carried by the opening's stress
-        wave would climb at it); (times, band centres) for the figure, or None where fewer than
-        three bands are reached."""
-        zc = 0.5 * (edges[:-1] + edges[1:])
-        fresh = np.isfinite(yielded[:, 0]) & (yielded[:, 0] < self.FRONT_ONSET)
-        arrival = np.array([analysis.first_time_reaching(t, np.nan_to_num(yielded[k]), self.FRONT_ONSET)
-                            if fresh[k] else np.nan for k in range(zc.size)])
-        reached = np.isfinite(arrival)
-        if reached.sum() < 3:
+        thesis' "switch of the stress state propagated from the bottom to the top" (§4.3.1):
+        :func:`analysis.failure_front` of the bands' yielded shares (times after the opening,
+        ``t``), with the number for report.md (its speed fitted over all of it and over its
+        first and last thirds, against the solid's confined wave speed: a front carried by the
+        opening's stress wave would climb at it); (times, band centres) for the figure, or None
+        where fewer than three bands are reached."""
+        ta, za, fresh = analysis.failure_front(t, 0.5 * (edges[:-1] + edges[1:]), yielded)
+        if ta.size < 3:
             return None
-        ta, za = arrival[reached], zc[reached]
-        order = np.argsort(za)
-        ta, za = np.maximum.accumulate(ta[order]), za[order]  # passed once every band below it has failed
         third = max(2, za.size // 3)
-        with np.errstate(divide="ignore"):  # a stretch failing at once climbs infinitely fast
-            speeds = [1.0 / np.polyfit(z, tt, 1)[0] for z, tt in ((za, ta), (za[:third], ta[:third]),
-                                                                  (za[-third:], ta[-third:]))]
+        speeds = [analysis.front_speed(ta[part], za[part]) for part in (slice(None), slice(third), slice(-third, None))]
         m = self.scene.material if self.scene is not None else None
         c_p = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density) if m is not None else np.nan
-        self.numbers.append(("shear zones: the failure front after the opening (a tenth of a band at yield)",
+        self.numbers.append((f"shear zones: the failure front after the opening ({100 * analysis.FRONT_ONSET:.0f} % "
+                             "of a band at yield)",
                              f"reaches z {za[0]:.2f} m at {ta[0]:.3g} s and z {za[-1]:.2f} m at {ta[-1]:.3g} s "
-                             f"({int(reached.sum())} of {int(fresh.sum())} bands elastic at the opening; passed once every "
-                             f"band below has failed): climbing at {speeds[0]:.3g} m/s over all, {speeds[1]:.3g} m/s in its lowest third and "
-                             f"{speeds[2]:.3g} m/s in its highest (the confined wave speed √(M/ρ): {c_p:.3g} m/s)"))
+                             f"({ta.size} of {fresh} bands elastic at the opening; passed once every band below has "
+                             f"failed): climbing at {speeds[0]:.3g} m/s over all, {speeds[1]:.3g} m/s in its lowest "
+                             f"third and {speeds[2]:.3g} m/s in its highest (the confined wave speed √(M/ρ): "
+                             f"{c_p:.3g} m/s)"))
         return ta, za
 
     def _zone_following(self, t, edges, shares: dict, times):

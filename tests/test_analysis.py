@@ -536,3 +536,26 @@ def test_chance_correlation_tells_a_real_follower_from_a_search_that_finds_anyth
     tone = np.sin(2 * math.pi * 0.7 * ts)
     tone_level = analysis.chance_correlation(tone, np.array([np.roll(tone, 3)]), m)
     assert tone_level > max(0.7, 1.5 * np.median(levels))
+
+
+def test_failure_front_passes_a_band_once_every_band_below_has_failed():
+    """Six bands (centres 0.1-1.1 m) sampled every 10 ms: band 0 failed at the start (not part
+    of the front), bands 1-4 reach 10 % at yield at 0.2 z s (a front climbing at 5 m/s: each
+    arrival exact to the sample, the share jumping from 0 to 0.3 between two), band 5 - the
+    free surface - flickers to 0.5 at 0.05 s but is passed only after band 4; a band empty at
+    the start (NaN) is left out. front_speed: 5 m/s over bands 1-4 to round-off, inf for bands
+    failing at once."""
+    t = np.arange(0.0, 1.0, 0.01)
+    z = np.array([0.1, 0.3, 0.5, 0.7, 0.9, 1.1, 1.3])
+    shares = np.zeros((7, t.size))
+    shares[0] = 0.8
+    for k in range(1, 5):
+        shares[k, t >= 0.2 * z[k] - 1e-9] = 0.3
+    shares[5, t >= 0.05 - 1e-9] = 0.5
+    shares[6] = np.nan
+    ta, za, fresh = analysis.failure_front(t, z, shares)
+    assert fresh == 5 and za == pytest.approx(z[1:6])
+    # first_time_reaching interpolates 0 → 0.3 to 0.1: a third of a sample before each arrival
+    assert ta == pytest.approx(np.append(0.2 * z[1:5], 0.2 * z[4]) - 0.01 * 2 / 3, abs=1e-12)
+    assert analysis.front_speed(ta[:4], za[:4]) == pytest.approx(5.0, rel=1e-9)
+    assert analysis.front_speed(np.ones(3), [0.1, 0.2, 0.3]) == np.inf

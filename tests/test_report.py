@@ -283,7 +283,7 @@ def test_report_follows_the_failure_front_and_the_band_the_slow_pulses_follow(sy
     r.shear_zones()
     assert not r.missing and (synthetic / "shear_zones.png").stat().st_size > 5000
     numbers = dict(r.numbers)
-    front = numbers["shear zones: the failure front after the opening (a tenth of a band at yield)"]
+    front = numbers["shear zones: the failure front after the opening (10 % of a band at yield)"]
     assert "(9 of 9 bands elastic at the opening;" in front
     speed = float(front.split("climbing at ")[1].split(" m/s")[0])
     assert speed == pytest.approx(2.0, rel=0.01)

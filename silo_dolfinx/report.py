@@ -800,7 +800,8 @@ class Report:
                              f"{100 * share:.0f} % ({100 * np.nanmin(per_band):.0f} % at z {zc[np.nanargmin(per_band)]:.2f} "
                              f"m to {100 * np.nanmax(per_band):.0f} % at z {zc[np.nanargmax(per_band)]:.2f} m)"))
         front = self._failure_front(t - t_open, edges, yielded)
-        settled = t >= self._settled(t_open, t1)
+        a, b = self._calm_stretch(self._settled(t_open, t1), t1)
+        settled = (t >= a) & (t <= b)
         whole = np.all(np.isfinite(yielded[:, settled]), axis=1) & (np.ptp(yielded[:, settled], axis=1) > 0)
         follow = None
         if settled.sum() >= 16 and t[settled][-1] - t[settled][0] >= 4.0 / analysis.LOW_CUTOFF and whole.any():
@@ -810,7 +811,10 @@ class Report:
             k = int(np.nanargmax(swing[:, 0]))
             self.numbers.append(("shear zones: the band failing most intermittently below 1 Hz",
                                  f"z {edges[k]:.2f}–{edges[k + 1]:.2f} m, its yielded share swinging by RMS "
-                                 f"{100 * swing[k, 0]:.1f} % {self._low_frequency(swing[k, 1], ts[-1] - ts[0])}"))
+                                 f"{100 * swing[k, 0]:.1f} % {self._low_frequency(swing[k, 1], ts[-1] - ts[0])} "
+                                 f"({a - t_open:.3g}–{b - t_open:.3g} s after the opening"
+                                 + (", the longest stretch without a re-mesh)" if (a, b) != (self._settled(t_open, t1), t1)
+                                    else ")")))
             follow = self._zone_following(t, edges, {"yielded": yielded, "separated": separated},
                                           (t_open, self._settled(t_open, t1), t1))
         else:
@@ -843,6 +847,20 @@ class Report:
                    + ("below: the slow part of the wall pressure at the station (dashed line above) whose link to a "
                       "band's failing or separating beats its chance level by the most (else where it is largest) "
                       "beside that band's share (zone_following.csv: every station)." if follow else ""))
+
+    def _remeshes(self) -> list[float]:
+        """When the discharge was re-meshed (summary.json's rezones)."""
+        return [r["t"] for st in self.summary.get("stages", []) if st["name"] == "discharge" for r in st.get("rezones", [])]
+
+    def _calm_stretch(self, t0: float, t1: float) -> tuple[float, float]:
+        """The longest stretch of [t0, t1] without a re-mesh. A re-mesh steps the stress field -
+        the outlet zone's separated pockets most (ch. 4's 60-s run: the separated share of the
+        band 0.26-0.40 m above the outlet stepped at four of its five) - and the pressures with
+        it: a step in two records at once, which no measure of their slow parts should read as
+        their dynamics (the lowest station's r -0.89 with that band's share was the steps)."""
+        cuts = np.array([t0, *[x for x in self._remeshes() if t0 < x < t1], t1])
+        i = int(np.argmax(np.diff(cuts)))
+        return float(cuts[i]), float(cuts[i + 1])
 
     def _failure_front(self, t, edges, yielded):
         """How the failure that starts at the outlet climbs the fill after the opening - the
@@ -883,22 +901,13 @@ class Report:
         h = read_csv(self.folder / "wall_history.csv")
         if h is None:
             return None
-        remeshed = [r["t"] for st in self.summary.get("stages", []) if st["name"] == "discharge"
-                    for r in st.get("rezones", [])]
         found = []
         for k in np.unique(h["station"]):
             window = self._after_switch(h, k, times)
             if window is None or window[0] is None:
                 continue
-            sel, tk = window
-            # a re-mesh steps the stress field - the outlet zone's separated pockets most - and the
-            # pressures with it: a shared step that no circular shift reproduces (ch. 4's 60-s
-            # run: the lowest station's r -0.89 with the outlet band's separated share came from
-            # the steps). The longest stretch between re-meshes is searched.
-            cuts = np.array([tk, *[x for x in remeshed if tk < x < times[2]], times[2]])
-            i = int(np.argmax(np.diff(cuts)))
-            tk, tz = cuts[i], cuts[i + 1]
-            sel = sel & (h["t"] >= tk) & (h["t"] <= tz)
+            tk, tz = self._calm_stretch(window[1], times[2])
+            sel = window[0] & (h["t"] >= tk) & (h["t"] <= tz)
             inside = (t >= tk) & (t <= tz)
             rows = [(kind, b) for kind, v in shares.items() for b in range(v.shape[0])
                     if np.all(np.isfinite(v[b, inside])) and np.ptp(v[b, inside]) > 0]
@@ -931,7 +940,7 @@ class Report:
         largest = max(found, key=lambda f: f["rms"])
         self.numbers.append((f"shear zones: the < 1 Hz part of p_n where it is largest, at {largest['name']} (RMS "
                              f"{largest['rms']:.3g} Pa {largest['start']:.3g}–{largest['end']:.3g} s after the opening"
-                             + (", the longest stretch without a re-mesh" if remeshed else "") + "), follows most closely",
+                             + (", the longest stretch without a re-mesh" if self._remeshes() else "") + "), follows most closely",
                              f"{link(largest)} (95 % of the same search against the wall's record shifted in time), "
                              f"exceeded at {largest['above']} of {largest['rows']} band records"))
         beaten = [f for f in found if abs(f["r"]) > f["chance"]]

@@ -831,12 +831,13 @@ class Report:
                          "of a band at yield)")
             axes[0].legend(fontsize=7, loc="lower right")
         if follow:
-            ax, (name, z_station, kind, k, lag, r, slow) = axes[2], follow
+            ax, (name, z_station, kind, k, lag, r, chance, slow) = axes[2], follow
             ax.plot(slow[0] - t_open, slow[1] / 1e3, "k-", lw=0.9, label=f"p_n at {name}, < 1 Hz")
             ax.set_ylabel("p_n below 1 Hz (kPa)")
             twin = ax.twinx()
             twin.plot(slow[0] - t_open, 100 * slow[2], "C1-", lw=0.9,
-                      label=f"{kind} share, z {edges[k]:.2f}–{edges[k + 1]:.2f} m, < 1 Hz (r {r:+.2f} at lag {lag:+.2f} s)")
+                      label=f"{kind} share, z {edges[k]:.2f}–{edges[k + 1]:.2f} m, < 1 Hz (r {r:+.2f} at lag {lag:+.2f} s; "
+                      f"chance {chance:.2f})")
             twin.set_ylabel(f"{kind} share below 1 Hz (%)")
             for a in (ax, twin):
                 a.legend(fontsize=7, loc="upper left" if a is ax else "upper right")
@@ -844,9 +845,9 @@ class Report:
         axes[-1].set_xlabel("time after opening (s)")
         self._save(fig, "shear_zones.png", "Where the solid fails, against height and time: the share of each band's "
                    "loaded solid at yield (the thesis' shear failure zone, q/p at its limit) and the share separated; "
-                   + ("below: the slow part of the wall pressure at the station (dashed line above) whose link to a "
-                      "band's failing or separating beats its chance level by the most (else where it is largest) "
-                      "beside that band's share (zone_following.csv: every station)." if follow else ""))
+                   + ("below: the slow part of the wall pressure where it is largest (dashed line above) beside the "
+                      "band share it follows most closely, with the chance level of that search (zone_following.csv: "
+                      "every station)." if follow else ""))
 
     def _remeshes(self) -> list[float]:
         """When the discharge was re-meshed (summary.json's rezones)."""
@@ -894,8 +895,8 @@ class Report:
         its chance level (:func:`analysis.chance_correlation`) - zone_following.csv, and the
         numbers for report.md (the station where the slow part is largest, the thesis' concern,
         and the stations whose link beats chance). For the figure: (station's name, height,
-        share, band, lag, r, (times, the two slow parts)) of the station beating chance by the
-        most, else of the largest; None without a station with a long enough record."""
+        share, band, lag, r, chance level, (times, the two slow parts)) of the station where the
+        slow part is largest; None without a station with a long enough record."""
         from silo_dolfinx.output.schema import ZONE_FOLLOWING
 
         h = read_csv(self.folder / "wall_history.csv")
@@ -931,26 +932,25 @@ class Report:
                                       edges[f["band"] + 1], f["lag"], f["r"], f["chance"], f["above"], f["rows"]]
                                      for f in found])
 
-        def link(f) -> str:
+        def link(f, named: bool = True) -> str:
             edge = " - at the search's edge: no peak within it" if f["edge"] else ""
             order = "in step" if f["lag"] == 0 else "the band follows" if f["lag"] > 0 else "the band leads"
-            return (f"the {f['kind']} share of z {edges[f['band']]:.2f}–{edges[f['band'] + 1]:.2f} m: r {f['r']:+.2f} "
+            return ((f"{f['name']}: " if named else "") + f"the {f['kind']} share of z {edges[f['band']]:.2f}–{edges[f['band'] + 1]:.2f} m: r {f['r']:+.2f} "
                     f"at a lag of {f['lag']:+.2f} s{edge} ({order}); chance level |r| {f['chance']:.2f}")
 
         largest = max(found, key=lambda f: f["rms"])
         self.numbers.append((f"shear zones: the < 1 Hz part of p_n where it is largest, at {largest['name']} (RMS "
                              f"{largest['rms']:.3g} Pa {largest['start']:.3g}–{largest['end']:.3g} s after the opening"
                              + (", the longest stretch without a re-mesh" if self._remeshes() else "") + "), follows most closely",
-                             f"{link(largest)} (95 % of the same search against the wall's record shifted in time), "
+                             f"{link(largest, named=False)} (95 % of the same search against the wall's record shifted in time), "
                              f"exceeded at {largest['above']} of {largest['rows']} band records"))
         beaten = [f for f in found if abs(f["r"]) > f["chance"]]
-        strongest = max(beaten, key=lambda f: abs(f["r"]) - f["chance"]) if beaten else largest
+        widest = f"; by the widest margin {link(max(beaten, key=lambda f: abs(f['r']) - f['chance']))}" if beaten else ""
         self.numbers.append(("shear zones: wall stations whose < 1 Hz pressure follows a band's failing or "
                              "separating beyond chance (r < 0: the pressure rises as the share falls)",
-                             f"{len(beaten)} of {len(found)} (chance alone: 1 in 20)" + (f"; by the widest margin {strongest['name']}, {link(strongest)}"
-                                                                 if beaten else "")))
-        f = strongest
-        return f["name"], f["z"], f["kind"], f["band"], f["lag"], f["r"], f["slow"]
+                             f"{len(beaten)} of {len(found)} (chance alone: 1 in 20){widest}"))
+        return (largest["name"], largest["z"], largest["kind"], largest["band"], largest["lag"], largest["r"],
+                largest["chance"], largest["slow"])
 
     WAVE_RESIDUAL = 20.0  # degrees: a phase residual above this is no travelling wave (tests: 0.02° clean,
     #                       88° standing; the ch. 7 wave 4-13°)

@@ -300,7 +300,7 @@ def test_report_follows_the_failure_front_and_the_band_the_slow_pulses_follow(sy
     assert corr > 0.9 and abs(lag - 0.3) <= 0.125 and chance < 0.7 and 1 <= above <= 3
     assert text.endswith("of 9 band records")
     beyond = next(v for k, v in numbers.items() if k.startswith("shear zones: wall stations whose"))
-    assert beyond.startswith("1 of 3 (chance alone: 1 in 20); by the widest margin z = 0.66 m, the yielded share of z "
+    assert beyond.startswith("1 of 3 (chance alone: 1 in 20); by the widest margin z = 0.66 m: the yielded share of z "
                              "1.85–2.11 m")  # the other two stations' noise is independent of every band
     table = read_csv(synthetic / "zone_following.csv")
     assert table["z"] == pytest.approx([0.33, 0.66, 1.32]) and np.all(table["bands"] == 9)

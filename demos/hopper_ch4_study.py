@@ -274,3 +274,52 @@ if comm.rank == 0:
     fig.savefig(OUT / "point_e.png", dpi=110)
     print(f"{OUT / 'point_e.png'}: p_n at point e, every case")
 # -
+
+# ## Where the solid fails (beyond the thesis' figures)
+#
+# The thesis explains the < 1 Hz fluctuation by the shear zones: "each slip corresponds to a
+# reduced stress ratio in the arching shear zone", and shows the switch from the active to the
+# passive state climbing from the outlet (§4.3.1, Figs. 4-5, 4-19). Each run's
+# `shear_zones.csv` (`output.zone_bands` height bands: the share of the loaded solid at yield,
+# the share separated) measures both: the **failure front** - when each band, and every band
+# below it, first has 10 % of its solid at yield after the opening (`analysis.failure_front`),
+# its speed fitted over the fill (`analysis.front_speed`) - and, in `zone_following.csv`
+# (`silo report`), whether each station's < 1 Hz pressure follows any band's failing or
+# separating beyond the chance level of that search (the same search against the pressure
+# record shifted in time; between re-meshes, which step both together).
+
+# +
+if comm.rank == 0:
+    lines = ["| case | failure front reaches the top band at | its speed: over all / top third | "
+             "largest < 1 Hz p_n (station, RMS) follows | r against chance | stations beyond chance |", "|---" * 6 + "|"]
+    for c in have:
+        folder = OUT / CASES[c]
+        zones = read_csv(folder / "shear_zones.csv")
+        if zones is None:
+            lines.append(f"| {c} | not recorded (a run before output.zone_bands) |  |  |  |  |")
+            continue
+        r = Report(folder)
+        r.shear_zones()  # shear_zones.png and zone_following.csv
+        n = int(zones["band"].max()) + 1
+        t_open = read_summary(folder)["stages"][-1]["t_start"]
+        tz = zones["t"].reshape(-1, n)[:, 0]
+        after = tz >= t_open
+        centres = 0.5 * (zones["z_low"][:n] + zones["z_high"][:n])
+        ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, zones["yielded_fraction"].reshape(-1, n).T[:, after])
+        third = max(2, za.size // 3)
+        front = (f"z {za[-1]:.2f} m, {ta[-1]:.2f} s", f"{analysis.front_speed(ta, za):.2f} / "
+                 f"{analysis.front_speed(ta[-third:], za[-third:]):.2f} m/s") if ta.size >= 3 else ("–", "–")
+        f = read_csv(folder / "zone_following.csv")
+        if f is None:
+            lines.append(f"| {c} | {front[0]} | {front[1]} | no station with a long enough record |  |  |")
+            continue
+        k = int(np.argmax(f["low_rms"]))
+        share = "separated" if f["separated"][k] else "yielded"
+        lines.append(f"| {c} | {front[0]} | {front[1]} | z {f['z'][k]:.2f} m, {f['low_rms'][k]:.0f} Pa: the {share} "
+                     f"share of z {f['z_low'][k]:.2f}–{f['z_high'][k]:.2f} m at {f['lag'][k]:+.2f} s | "
+                     f"{f['correlation'][k]:+.2f} vs {f['chance'][k]:.2f} | "
+                     f"{int(np.sum(np.abs(f['correlation']) > f['chance']))} of {f['z'].size} |")
+    table = "\n".join(lines)
+    (OUT / "shear_zones.md").write_text(table + "\n")
+    print(table)
+# -

@@ -305,7 +305,8 @@ if comm.rank == 0:
         tz = zones["t"].reshape(-1, n)[:, 0]
         after = tz >= t_open
         centres = 0.5 * (zones["z_low"][:n] + zones["z_high"][:n])
-        ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, zones["yielded_fraction"].reshape(-1, n).T[:, after])
+        yielded = zones["yielded_fraction"].reshape(-1, n).T[:, after]
+        ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, yielded)
         third = max(2, za.size // 3)
         front = (f"z {za[-1]:.2f} m, {ta[-1]:.2f} s", f"{analysis.front_speed(ta, za):.2f} / "
                  f"{analysis.front_speed(ta[-third:], za[-third:]):.2f} m/s") if ta.size >= 3 else ("–", "–")

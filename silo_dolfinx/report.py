@@ -797,24 +797,25 @@ class Report:
         share = np.nansum(yielded * loaded) / np.nansum(np.where(np.isfinite(yielded), loaded, 0.0))
         per_band = np.nanmean(yielded, axis=1) if np.any(np.isfinite(yielded)) else np.full(n, np.nan)
         self.numbers.append(("shear zones: the loaded solid at yield over the discharge (the band mean ranging)",
-                             f"{100 * share:.0f} % ({100 * np.nanmin(per_band):.0f} % at z {zc[np.nanargmin(per_band)]:.2f} "
-                             f"m to {100 * np.nanmax(per_band):.0f} % at z {zc[np.nanargmax(per_band)]:.2f} m)"))
+                             f"{100 * share:.0f} % ({100 * np.nanmin(per_band):.0f} % at z "
+                             f"{zc[np.nanargmin(per_band)]:.2f} m to {100 * np.nanmax(per_band):.0f} % at z "
+                             f"{zc[np.nanargmax(per_band)]:.2f} m)"))
         front = self._failure_front(t - t_open, edges, yielded)
-        a, b = self._calm_stretch(self._settled(t_open, t1), t1)
-        settled = (t >= a) & (t <= b)
+        calm = self._calm_stretch(self._settled(t_open, t1), t1)
+        settled = (t >= calm[0]) & (t <= calm[1])
         whole = np.all(np.isfinite(yielded[:, settled]), axis=1) & (np.ptp(yielded[:, settled], axis=1) > 0)
         follow = None
         if settled.sum() >= 16 and t[settled][-1] - t[settled][0] >= 4.0 / analysis.LOW_CUTOFF and whole.any():
             ts = t[settled]
-            swing = np.array([analysis.low_frequency_fluctuation(ts, yielded[k, settled]) if whole[k] else (np.nan, np.nan)
-                              for k in range(n)])
+            swing = np.array([analysis.low_frequency_fluctuation(ts, yielded[k, settled]) if whole[k]
+                              else (np.nan, np.nan) for k in range(n)])
             k = int(np.nanargmax(swing[:, 0]))
             self.numbers.append(("shear zones: the band failing most intermittently below 1 Hz",
                                  f"z {edges[k]:.2f}–{edges[k + 1]:.2f} m, its yielded share swinging by RMS "
                                  f"{100 * swing[k, 0]:.1f} % {self._low_frequency(swing[k, 1], ts[-1] - ts[0])} "
-                                 f"({a - t_open:.3g}–{b - t_open:.3g} s after the opening"
-                                 + (", the longest stretch without a re-mesh)" if (a, b) != (self._settled(t_open, t1), t1)
-                                    else ")")))
+                                 f"({calm[0] - t_open:.3g}–{calm[1] - t_open:.3g} s after the opening"
+                                 + (", the longest stretch without a re-mesh)"
+                                    if calm != (self._settled(t_open, t1), t1) else ")")))
             follow = self._zone_following(t, edges, {"yielded": yielded, "separated": separated},
                                           (t_open, self._settled(t_open, t1), t1))
         else:
@@ -827,8 +828,8 @@ class Report:
             fig.colorbar(mesh, ax=ax, label=label)
             ax.set_ylabel("height z (m)")
         if front is not None:
-            axes[0].plot(front[0], front[1], "o", color="c", ms=3, label=f"failure front ({100 * analysis.FRONT_ONSET:.0f} % "
-                         "of a band at yield)")
+            axes[0].plot(front[0], front[1], "o", color="c", ms=3,
+                         label=f"failure front ({100 * analysis.FRONT_ONSET:.0f} % of a band at yield)")
             axes[0].legend(fontsize=7, loc="lower right")
         if follow:
             ax, (name, z_station, kind, k, lag, r, chance, slow) = axes[2], follow
@@ -836,8 +837,8 @@ class Report:
             ax.set_ylabel("p_n below 1 Hz (kPa)")
             twin = ax.twinx()
             twin.plot(slow[0] - t_open, 100 * slow[2], "C1-", lw=0.9,
-                      label=f"{kind} share, z {edges[k]:.2f}–{edges[k + 1]:.2f} m, < 1 Hz (r {r:+.2f} at lag {lag:+.2f} s; "
-                      f"chance {chance:.2f})")
+                      label=f"{kind} share, z {edges[k]:.2f}–{edges[k + 1]:.2f} m, < 1 Hz (r {r:+.2f} at lag "
+                      f"{lag:+.2f} s; chance {chance:.2f})")
             twin.set_ylabel(f"{kind} share below 1 Hz (%)")
             for a in (ax, twin):
                 a.legend(fontsize=7, loc="upper left" if a is ax else "upper right")
@@ -851,14 +852,15 @@ class Report:
 
     def _remeshes(self) -> list[float]:
         """When the discharge was re-meshed (summary.json's rezones)."""
-        return [r["t"] for st in self.summary.get("stages", []) if st["name"] == "discharge" for r in st.get("rezones", [])]
+        return [r["t"] for st in self.summary.get("stages", []) if st["name"] == "discharge"
+                for r in st.get("rezones", [])]
 
     def _calm_stretch(self, t0: float, t1: float) -> tuple[float, float]:
         """The longest stretch of [t0, t1] without a re-mesh. A re-mesh steps the stress field -
-        the outlet zone's separated pockets most (ch. 4's 60-s run: the separated share of the
-        band 0.26-0.40 m above the outlet stepped at four of its five) - and the pressures with
-        it: a step in two records at once, which no measure of their slow parts should read as
-        their dynamics (the lowest station's r -0.89 with that band's share was the steps)."""
+        the outlet zone's stress-free pockets most (ch. 4's 60-s run: the pocket 0.13-0.40 m above
+        the outlet switched on or off at four of its five) - and the pressures with it: a step in
+        two records at once, which no measure of their slow parts should read as their dynamics
+        (the lowest station's r -0.89 with that band's share was the steps)."""
         cuts = np.array([t0, *[x for x in self._remeshes() if t0 < x < t1], t1])
         i = int(np.argmax(np.diff(cuts)))
         return float(cuts[i]), float(cuts[i + 1])
@@ -875,7 +877,8 @@ class Report:
         if ta.size < 3:
             return None
         third = max(2, za.size // 3)
-        speeds = [analysis.front_speed(ta[part], za[part]) for part in (slice(None), slice(third), slice(-third, None))]
+        speeds = [analysis.front_speed(ta[part], za[part])
+                  for part in (slice(None), slice(third), slice(-third, None))]
         m = self.scene.material if self.scene is not None else None
         c_p = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density) if m is not None else np.nan
         self.numbers.append((f"shear zones: the failure front after the opening ({100 * analysis.FRONT_ONSET:.0f} % "
@@ -889,8 +892,9 @@ class Report:
 
     def _zone_following(self, t, edges, shares: dict, times):
         """Whether the < 1 Hz part of p_n at each wall station, after its switch
-        (:meth:`_after_switch`) and between re-meshes (the longest stretch), follows the slow part of a band's failing or separating (the
-        ``shares`` of each band with a whole record there): the best |r| of
+        (:meth:`_after_switch`) and between re-meshes (the longest stretch), follows the slow part
+        of a band's failing or separating (the ``shares`` of each band with a whole record
+        there): the best |r| of
         :func:`analysis.best_lag` within ± ``ZONE_LAG`` s over the bands and both shares, against
         its chance level (:func:`analysis.chance_correlation`) - zone_following.csv, and the
         numbers for report.md (the station where the slow part is largest, the thesis' concern,
@@ -921,31 +925,37 @@ class Report:
             pairs = [analysis.best_lag(slow_p, row, m) for row in slow]
             j = int(np.nanargmax([abs(r) for _, r in pairs]))
             chance = analysis.chance_correlation(slow_p, slow, m)
-            found.append(dict(z=float(np.mean(h["z"][sel])), name=self._station(k, float(np.mean(h["z"][sel]))),
-                              start=tk - times[0], end=tz - times[0], rms=analysis.low_frequency_fluctuation(h["t"][sel], h["p_n"][sel])[0],
-                              kind=rows[j][0], band=rows[j][1], lag=pairs[j][0] * (ts[-1] - ts[0]) / (ts.size - 1),
+            z_k = float(np.mean(h["z"][sel]))
+            found.append(dict(z=z_k, name=self._station(k, z_k), start=tk - times[0], end=tz - times[0],
+                              cut=(tk, tz) != (window[1], times[2]),
+                              rms=analysis.low_frequency_fluctuation(h["t"][sel], h["p_n"][sel])[0], kind=rows[j][0],
+                              band=rows[j][1], lag=pairs[j][0] * (ts[-1] - ts[0]) / (ts.size - 1),
                               edge=abs(pairs[j][0]) >= m, r=pairs[j][1], chance=chance, rows=len(rows),
                               above=sum(1 for _, x in pairs if abs(x) > chance), slow=(ts, slow_p, slow[j])))
         if not found:
             return None
-        self._table(ZONE_FOLLOWING, [[f["z"], f["start"], f["end"], f["rms"], int(f["kind"] == "separated"), edges[f["band"]],
-                                      edges[f["band"] + 1], f["lag"], f["r"], f["chance"], f["above"], f["rows"]]
-                                     for f in found])
+        self._table(ZONE_FOLLOWING, [[f["z"], f["start"], f["end"], f["rms"], int(f["kind"] == "separated"),
+                                      edges[f["band"]], edges[f["band"] + 1], f["lag"], f["r"], f["chance"],
+                                      f["above"], f["rows"]] for f in found])
 
         def link(f, named: bool = True) -> str:
             edge = " - at the search's edge: no peak within it" if f["edge"] else ""
             order = "in step" if f["lag"] == 0 else "the band follows" if f["lag"] > 0 else "the band leads"
-            return ((f"{f['name']}: " if named else "") + f"the {f['kind']} share of z {edges[f['band']]:.2f}–{edges[f['band'] + 1]:.2f} m: r {f['r']:+.2f} "
-                    f"at a lag of {f['lag']:+.2f} s{edge} ({order}); chance level |r| {f['chance']:.2f}")
+            return ((f"{f['name']}: " if named else "") + f"the {f['kind']} share of z {edges[f['band']]:.2f}–"
+                    f"{edges[f['band'] + 1]:.2f} m: r {f['r']:+.2f} at a lag of {f['lag']:+.2f} s{edge} ({order}); "
+                    f"chance level |r| {f['chance']:.2f}")
 
         largest = max(found, key=lambda f: f["rms"])
-        self.numbers.append((f"shear zones: the < 1 Hz part of p_n where it is largest, at {largest['name']} (RMS "
-                             f"{largest['rms']:.3g} Pa {largest['start']:.3g}–{largest['end']:.3g} s after the opening"
-                             + (", the longest stretch without a re-mesh" if self._remeshes() else "") + "), follows most closely",
-                             f"{link(largest, named=False)} (95 % of the same search against the wall's record shifted in time), "
-                             f"exceeded at {largest['above']} of {largest['rows']} band records"))
+        self.numbers.append((f"shear zones: the < 1 Hz part of p_n where it is largest, at {largest['name']} "
+                             f"(RMS {largest['rms']:.3g} Pa {largest['start']:.3g}–{largest['end']:.3g} s after the "
+                             "opening"
+                             + (", the longest stretch without a re-mesh" if largest["cut"] else "")
+                             + "), follows most closely",
+                             f"{link(largest, named=False)} (95 % of the same search against the wall's record shifted "
+                             f"in time), exceeded at {largest['above']} of {largest['rows']} band records"))
         beaten = [f for f in found if abs(f["r"]) > f["chance"]]
-        widest = f"; by the widest margin {link(max(beaten, key=lambda f: abs(f['r']) - f['chance']))}" if beaten else ""
+        widest = (f"; by the widest margin {link(max(beaten, key=lambda f: abs(f['r']) - f['chance']))}"
+                  if beaten else "")
         self.numbers.append(("shear zones: wall stations whose < 1 Hz pressure follows a band's failing or "
                              "separating beyond chance (r < 0: the pressure rises as the share falls)",
                              f"{len(beaten)} of {len(found)} (chance alone: 1 in 20){widest}"))

@@ -198,8 +198,8 @@ PULSE_TRAVEL = CsvFile("pulse_travel.csv", "Written by `silo report`: whether th
 
 ZONE_FOLLOWING = CsvFile("zone_following.csv", "Written by `silo report`: whether each wall station's slow "
                          "pressure follows where the solid fails, over the discharge after the station's switch (as "
-                         "wall_dynamics.csv) and between re-meshes: the parts below 1 Hz of p_n and of every height band's yielded and "
-                         "separated shares (shear_zones.csv) - detrended, zero-phase filtered, thinned to 1/8 s - "
+                         "wall_dynamics.csv) and between re-meshes: the parts below 1 Hz of p_n and of every "
+                         "height band's yielded and separated shares (shear_zones.csv) - detrended, zero-phase filtered, thinned to 1/8 s - "
                          "and the band and share whose normalised cross-correlation with p_n is largest in magnitude "
                          "within ± 1 s, against what the same search finds by chance.", (
     C("z", "m", "height of the station"), C("t_from", "s", "measured from this long after the opening"),
@@ -237,8 +237,8 @@ FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a disch
 ))
 
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, SHEAR_ZONES, OUTLET, MESH_QUALITY,
-                              TRACERS, DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, PULSE_TRAVEL, ZONE_FOLLOWING, RAREFACTION,
-                              FLOW_CHANNEL)
+                              TRACERS, DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, PULSE_TRAVEL,
+                              ZONE_FOLLOWING, RAREFACTION, FLOW_CHANNEL)
 
 
 def for_file(filename: str) -> CsvFile | None:

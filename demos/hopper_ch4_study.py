@@ -283,20 +283,22 @@ if comm.rank == 0:
 # `shear_zones.csv` (`output.zone_bands` height bands: the share of the loaded solid at yield,
 # the share separated) measures both: the **failure front** - when each band, and every band
 # below it, first has 10 % of its solid at yield after the opening (`analysis.failure_front`),
-# its speed fitted over the fill (`analysis.front_speed`) - and, in `zone_following.csv`
+# its speed fitted over the fill (`analysis.front_speed`) and how its height grows with time
+# (`analysis.front_growth`: as √t, a diffusing front, or as t) - and, in `zone_following.csv`
 # (`silo report`), whether each station's < 1 Hz pressure follows any band's failing or
 # separating beyond the chance level of that search (the same search against the pressure
 # record shifted in time; between re-meshes, which step both together).
 
 # +
 if comm.rank == 0:
-    lines = ["| case | failure front reaches the top band at | its speed: over all / top third | "
-             "largest < 1 Hz p_n (station, RMS) follows | r against chance | stations beyond chance |", "|---" * 6 + "|"]
+    lines = ["| case | failure front reaches the top band at | its speed: over all / top third | height ∝ tⁿ: n, "
+             "height²/t | largest < 1 Hz p_n (station, RMS) follows | r against chance | stations beyond chance |",
+             "|---" * 7 + "|"]
     for c in have:
         folder = OUT / CASES[c]
         zones = read_csv(folder / "shear_zones.csv")
         if zones is None:
-            lines.append(f"| {c} | not recorded (a run before output.zone_bands) |  |  |  |  |")
+            lines.append(f"| {c} | not recorded (a run before output.zone_bands) |  |  |  |  |  |")
             continue
         r = Report(folder)
         r.shear_zones()  # shear_zones.png and zone_following.csv
@@ -308,15 +310,17 @@ if comm.rank == 0:
         yielded = zones["yielded_fraction"].reshape(-1, n).T[:, after]
         ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, yielded)
         third = max(2, za.size // 3)
+        growth = analysis.front_growth(ta, za - zones["z_low"][0]) if ta.size >= 3 else (np.nan, np.nan)
         front = (f"z {za[-1]:.2f} m, {ta[-1]:.2f} s", f"{analysis.front_speed(ta, za):.2f} / "
-                 f"{analysis.front_speed(ta[-third:], za[-third:]):.2f} m/s") if ta.size >= 3 else ("–", "–")
+                 f"{analysis.front_speed(ta[-third:], za[-third:]):.2f} m/s",
+                 f"{growth[0]:.2f}, {growth[1]:.2f} m²/s") if ta.size >= 3 else ("–", "–", "–")
         f = read_csv(folder / "zone_following.csv")
         if f is None:
-            lines.append(f"| {c} | {front[0]} | {front[1]} | no station with a long enough record |  |  |")
+            lines.append(f"| {c} | {front[0]} | {front[1]} | {front[2]} | no station with a long enough record |  |  |")
             continue
         k = int(np.argmax(f["low_rms"]))
         share = "separated" if f["separated"][k] else "yielded"
-        lines.append(f"| {c} | {front[0]} | {front[1]} | z {f['z'][k]:.2f} m, {f['low_rms'][k]:.0f} Pa: the {share} "
+        lines.append(f"| {c} | {front[0]} | {front[1]} | {front[2]} | z {f['z'][k]:.2f} m, {f['low_rms'][k]:.0f} Pa: the {share} "
                      f"share of z {f['z_low'][k]:.2f}–{f['z_high'][k]:.2f} m at {f['lag'][k]:+.2f} s | "
                      f"{f['correlation'][k]:+.2f} vs {f['chance'][k]:.2f} | "
                      f"{int(np.sum(np.abs(f['correlation']) > f['chance']))} of {f['z'].size} |")

@@ -432,6 +432,20 @@ def front_speed(t, z) -> float:
     return float(1.0 / np.polyfit(np.asarray(z, float), np.asarray(t, float), 1)[0])
 
 
+def front_growth(t, height, late: float = 0.05) -> tuple[float, float]:
+    """How a front's height above where it started grows with time: (the exponent n of
+    height ∝ tⁿ, a log-log least-squares line; ½ for a diffusing front, 1 for one at a constant
+    speed, and the coefficient height²/t of a diffusing one, least squares through the
+    origin), over the arrivals after ``late`` of the last (the first instants at the source
+    are not the front's growth). NaNs with fewer than three such arrivals."""
+    t, height = np.asarray(t, float), np.asarray(height, float)
+    keep = (t >= late * t.max()) & (t > 0.0) & (height > 0.0)
+    if keep.sum() < 3:
+        return float("nan"), float("nan")
+    exponent = np.polyfit(np.log(t[keep]), np.log(height[keep]), 1)[0]
+    return float(exponent), float(np.sum(height[keep] ** 2 * t[keep]) / np.sum(t[keep] ** 2))
+
+
 def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:
     """When a station's wall pressure has switched from the filled state to the flowing one: the
     first time after ``t_open`` that its part below ``cutoff`` (zero-phase 4th-order

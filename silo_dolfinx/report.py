@@ -871,7 +871,8 @@ class Report:
         :func:`analysis.failure_front` of the bands' yielded shares (times after the opening,
         ``t``), with the number for report.md (its speed fitted over all of it and over its
         first and last thirds, against the solid's confined wave speed: a front carried by the
-        opening's stress wave would climb at it); (times, band centres) for the figure, or None
+        opening's stress wave would climb at it; how its height grows with time,
+        :func:`analysis.front_growth`); (times, band centres) for the figure, or None
         where fewer than three bands are reached."""
         ta, za, fresh = analysis.failure_front(t, 0.5 * (edges[:-1] + edges[1:]), yielded)
         if ta.size < 3:
@@ -879,6 +880,7 @@ class Report:
         third = max(2, za.size // 3)
         speeds = [analysis.front_speed(ta[part], za[part])
                   for part in (slice(None), slice(third), slice(-third, None))]
+        exponent, diffusing = analysis.front_growth(ta, za - edges[0])
         m = self.scene.material if self.scene is not None else None
         c_p = theory.confined_wave_speed(m.youngs_modulus, m.poisson_ratio, m.density) if m is not None else np.nan
         self.numbers.append((f"shear zones: the failure front after the opening ({100 * analysis.FRONT_ONSET:.0f} % "
@@ -887,7 +889,8 @@ class Report:
                              f"({ta.size} of {fresh} bands elastic at the opening; passed once every band below has "
                              f"failed): climbing at {speeds[0]:.3g} m/s over all, {speeds[1]:.3g} m/s in its lowest "
                              f"third and {speeds[2]:.3g} m/s in its highest (the confined wave speed √(M/ρ): "
-                             f"{c_p:.3g} m/s)"))
+                             f"{c_p:.3g} m/s); its height above the outlet grows as t^{exponent:.2f} (½: a diffusing "
+                             f"front, height²/t {diffusing:.3g} m²/s; 1: a constant speed)"))
         return ta, za
 
     def _zone_following(self, t, edges, shares: dict, times):

@@ -559,3 +559,16 @@ def test_failure_front_passes_a_band_once_every_band_below_has_failed():
     assert ta == pytest.approx(np.append(0.2 * z[1:5], 0.2 * z[4]) - 0.01 * 2 / 3, abs=1e-12)
     assert analysis.front_speed(ta[:4], za[:4]) == pytest.approx(5.0, rel=1e-9)
     assert analysis.front_speed(np.ones(3), [0.1, 0.2, 0.3]) == np.inf
+
+
+def test_front_growth_tells_a_diffusing_front_from_one_at_a_constant_speed():
+    """Arrivals of a front at heights h = √(1.5 t) (a diffusing one) are fitted with exponent ½
+    and h²/t = 1.5 to round-off; h = 0.6 t (a constant speed) with exponent 1; the instant
+    failure at the source (t ≈ 0, below 5 % of the last arrival) is left out, and a front with
+    fewer than three later arrivals gives NaNs."""
+    h = np.linspace(0.1, 2.5, 19)
+    t = h**2 / 1.5
+    exponent, coefficient = analysis.front_growth(np.append(1e-3, t), np.append(0.05, h))
+    assert exponent == pytest.approx(0.5, abs=1e-9) and coefficient == pytest.approx(1.5, rel=1e-9)
+    assert analysis.front_growth(h / 0.6, h)[0] == pytest.approx(1.0, abs=1e-9)
+    assert np.isnan(analysis.front_growth([0.0, 1e-3, 1.0], [0.1, 0.2, 0.3])[0])

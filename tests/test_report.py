@@ -287,6 +287,9 @@ def test_report_follows_the_failure_front_and_the_band_the_slow_pulses_follow(sy
     assert "(9 of 9 bands elastic at the opening;" in front
     speed = float(front.split("climbing at ")[1].split(" m/s")[0])
     assert speed == pytest.approx(2.0, rel=0.01)
+    # a constant speed from the outlet band's top: height above the outlet ∝ t^1.00 (the arrivals
+    # at 2 m/s from z 0 (bands 1-9), within the sample's 5 ms)
+    assert "its height above the outlet grows as t^1.00 " in front
     assert "to 100 % at z 0.13 m)" in numbers["shear zones: the loaded solid at yield over the discharge (the band "
                                                "mean ranging)"]
     assert numbers["shear zones: the band failing most intermittently below 1 Hz"].startswith("z 1.85–2.11 m,")

@@ -412,16 +412,17 @@ FRONT_ONSET = 0.1  # a band has failed once a tenth of its loaded solid is at yi
 def failure_front(t, z, shares, onset: float = FRONT_ONSET) -> tuple[np.ndarray, np.ndarray, int]:
     """How a failure climbs through height bands (centres ``z``; ``shares`` (bands, samples):
     each band's share at yield at the times ``t``): (times, heights) at which the front passes
-    the bands that were below ``onset`` at t[0] and reach it - a band is passed once it and every
-    such band below it have reached it (:func:`first_time_reaching`) - and how many bands were
-    below ``onset`` at t[0]. Bands without a record at t[0] (NaN: empty) are left out."""
-    shares = np.asarray(shares, float)
-    fresh = np.isfinite(shares[:, 0]) & (shares[:, 0] < onset)
-    arrival = np.array([first_time_reaching(t, np.nan_to_num(shares[k]), onset) if fresh[k] else np.nan
-                        for k in range(shares.shape[0])])
-    reached = np.isfinite(arrival)
-    order = np.argsort(np.asarray(z, float)[reached])
-    return np.maximum.accumulate(arrival[reached][order]), np.asarray(z, float)[reached][order], int(fresh.sum())
+    the bands that were below ``onset`` at t[0] - a band is passed once it and every such band
+    below it have reached it (:func:`first_time_reaching`); the front stops below the first
+    that never does (a band above it that fails early, a free surface flickering, is not
+    passed) - and how many bands were below ``onset`` at t[0]. Bands without a record at t[0]
+    (NaN: empty) are left out."""
+    shares, z = np.asarray(shares, float), np.asarray(z, float)
+    fresh = np.nonzero(np.isfinite(shares[:, 0]) & (shares[:, 0] < onset))[0]
+    fresh = fresh[np.argsort(z[fresh])]
+    arrival = np.array([first_time_reaching(t, np.nan_to_num(shares[k]), onset) for k in fresh])
+    passed = np.cumprod(np.isfinite(arrival)).astype(bool)
+    return np.maximum.accumulate(arrival[passed]), z[fresh][passed], int(fresh.size)
 
 
 def front_speed(t, z) -> float:

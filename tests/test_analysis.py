@@ -543,7 +543,7 @@ def test_failure_front_passes_a_band_once_every_band_below_has_failed():
     of the front), bands 1-4 reach 10 % at yield at 0.2 z s (a front climbing at 5 m/s: each
     arrival exact to the sample, the share jumping from 0 to 0.3 between two), band 5 - the
     free surface - flickers to 0.5 at 0.05 s but is passed only after band 4; a band empty at
-    the start (NaN) is left out. front_speed: 5 m/s over bands 1-4 to round-off, inf for bands
+    the start (NaN) is left out. Where a band never fails the front stops below it. front_speed: 5 m/s over bands 1-4 to round-off, inf for bands
     failing at once."""
     t = np.arange(0.0, 1.0, 0.01)
     z = np.array([0.1, 0.3, 0.5, 0.7, 0.9, 1.1, 1.3])
@@ -557,6 +557,11 @@ def test_failure_front_passes_a_band_once_every_band_below_has_failed():
     assert fresh == 5 and za == pytest.approx(z[1:6])
     # first_time_reaching interpolates 0 → 0.3 to 0.1: a third of a sample before each arrival
     assert ta == pytest.approx(np.append(0.2 * z[1:5], 0.2 * z[4]) - 0.01 * 2 / 3, abs=1e-12)
+    # band 3 never fails (a front that stalls at 0.5 m): bands 4 and 5 above it are not passed,
+    # however early they fail
+    shares[3] = 0.0
+    ta, za, fresh = analysis.failure_front(t, z, shares)
+    assert fresh == 5 and za == pytest.approx(z[1:3]) and ta == pytest.approx(0.2 * z[1:3] - 0.01 * 2 / 3)
     assert analysis.front_speed(ta[:4], za[:4]) == pytest.approx(5.0, rel=1e-9)
     assert analysis.front_speed(np.ones(3), [0.1, 0.2, 0.3]) == np.inf
 

@@ -291,7 +291,7 @@ if comm.rank == 0:
 
 # +
 if comm.rank == 0:
-    lines = ["| case | failure front reaches the top band at | its speed: over all / top third | height ∝ tⁿ: n, "
+    lines = ["| case | failure front: the highest band it passes, when | its speed: over all / top third | height ∝ tⁿ: n, "
              "height²/t | largest < 1 Hz p_n (station, RMS) follows | r against chance | stations beyond chance |",
              "|---" * 7 + "|"]
     for c in have:
@@ -316,12 +316,12 @@ if comm.rank == 0:
                  f"{growth[0]:.2f}, {growth[1]:.2f} m²/s") if ta.size >= 3 else ("–", "–", "–")
         f = read_csv(folder / "zone_following.csv")
         if f is None:
-            lines.append(f"| {c} | {front[0]} | {front[1]} | {front[2]} | no station with a long enough record |  |  |")
+            lines.append(f"| {c} | {' | '.join(front)} | no station with a long enough record |  |  |")
             continue
         k = int(np.argmax(f["low_rms"]))
         share = "separated" if f["separated"][k] else "yielded"
-        lines.append(f"| {c} | {front[0]} | {front[1]} | {front[2]} | z {f['z'][k]:.2f} m, {f['low_rms'][k]:.0f} Pa: the {share} "
-                     f"share of z {f['z_low'][k]:.2f}–{f['z_high'][k]:.2f} m at {f['lag'][k]:+.2f} s | "
+        lines.append(f"| {c} | {front[0]} | {front[1]} | {front[2]} | z {f['z'][k]:.2f} m, {f['low_rms'][k]:.0f} Pa: "
+                     f"the {share} share of z {f['z_low'][k]:.2f}–{f['z_high'][k]:.2f} m at {f['lag'][k]:+.2f} s | "
                      f"{f['correlation'][k]:+.2f} vs {f['chance'][k]:.2f} | "
                      f"{int(np.sum(np.abs(f['correlation']) > f['chance']))} of {f['z'].size} |")
     table = "\n".join(lines)

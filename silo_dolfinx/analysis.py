@@ -438,10 +438,11 @@ def front_growth(t, height, late: float = 0.05) -> tuple[float, float]:
     height ∝ tⁿ, a log-log least-squares line; ½ for a diffusing front, 1 for one at a constant
     speed, and the coefficient height²/t of a diffusing one, least squares through the
     origin), over the arrivals after ``late`` of the last (the first instants at the source
-    are not the front's growth). NaNs with fewer than three such arrivals."""
+    are not the front's growth). NaNs with fewer than three such arrivals or all of them at
+    once (no growth to fit)."""
     t, height = np.asarray(t, float), np.asarray(height, float)
     keep = (t >= late * t.max()) & (t > 0.0) & (height > 0.0)
-    if keep.sum() < 3:
+    if keep.sum() < 3 or np.ptp(t[keep]) == 0.0:
         return float("nan"), float("nan")
     exponent = np.polyfit(np.log(t[keep]), np.log(height[keep]), 1)[0]
     return float(exponent), float(np.sum(height[keep] ** 2 * t[keep]) / np.sum(t[keep] ** 2))

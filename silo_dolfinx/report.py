@@ -889,8 +889,9 @@ class Report:
                              f"({ta.size} of {fresh} bands elastic at the opening; passed once every band below has "
                              f"failed): climbing at {speeds[0]:.3g} m/s over all, {speeds[1]:.3g} m/s in its lowest "
                              f"third and {speeds[2]:.3g} m/s in its highest (the confined wave speed √(M/ρ): "
-                             f"{c_p:.3g} m/s); its height above the outlet grows as t^{exponent:.2f} (½: a diffusing "
-                             f"front, height²/t {diffusing:.3g} m²/s; 1: a constant speed)"))
+                             f"{c_p:.3g} m/s)" + (f"; its height above the outlet grows as t^{exponent:.2f} (½: a "
+                                                  f"diffusing front, height²/t {diffusing:.3g} m²/s; 1: a constant speed)"
+                                                  if np.isfinite(exponent) else "; its bands failing at once")))
         return ta, za
 
     def _zone_following(self, t, edges, shares: dict, times):

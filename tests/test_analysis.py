@@ -1,6 +1,7 @@
 """Analysis functions on synthetic data with known answers."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -570,10 +571,13 @@ def test_front_growth_tells_a_diffusing_front_from_one_at_a_constant_speed():
     """Arrivals of a front at heights h = √(1.5 t) (a diffusing one) are fitted with exponent ½
     and h²/t = 1.5 to round-off; h = 0.6 t (a constant speed) with exponent 1; the instant
     failure at the source (t ≈ 0, below 5 % of the last arrival) is left out, and a front with
-    fewer than three later arrivals gives NaNs."""
+    fewer than three later arrivals, or all at once, gives NaNs."""
     h = np.linspace(0.1, 2.5, 19)
     t = h**2 / 1.5
     exponent, coefficient = analysis.front_growth(np.append(1e-3, t), np.append(0.05, h))
     assert exponent == pytest.approx(0.5, abs=1e-9) and coefficient == pytest.approx(1.5, rel=1e-9)
     assert analysis.front_growth(h / 0.6, h)[0] == pytest.approx(1.0, abs=1e-9)
     assert np.isnan(analysis.front_growth([0.0, 1e-3, 1.0], [0.1, 0.2, 0.3])[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ill-conditioned fit: bands failing at once have no growth
+        assert np.isnan(analysis.front_growth([1.0, 1.0, 1.0], [0.1, 0.2, 0.3])[0])

@@ -49,6 +49,9 @@ ap.add_argument("--reuse", action="store_true", help="run nothing: measure the r
 ap.add_argument("--discharge", type=float, help="seconds of discharge (default: 6 with --quick, the scene's otherwise)")
 ap.add_argument("--cases", help="comma-separated subset of the cases to run (default: all)")
 ap.add_argument("--element-size", type=float, help="mesh size (m) instead of the scenes' (0.0155 m; --quick: 0.04)")
+ap.add_argument("--front-variants", action="store_true",
+                help="also run the reference scene on the --quick mesh with one change at a time and tabulate its "
+                     "failure front (~4 min on 2 ranks)")
 args, _ = ap.parse_known_args()
 OUT = Path("results") / ("ch4_study_quick" if args.quick else "ch4_study")
 if args.element_size:
@@ -327,4 +330,67 @@ if comm.rank == 0:
     table = "\n".join(lines)
     (OUT / "shear_zones.md").write_text(table + "\n")
     print(table)
+# -
+
+# ## What sets the failure front's rate (beyond the thesis)
+#
+# The front's height above the outlet grows as √t in every free discharge above: a diffusing
+# front. `--front-variants` runs the reference scene on the `--quick` mesh and durations with
+# one change at a time (results/ch4_front_variants/; a variant already completed there is not
+# run again, so `--reuse --front-variants` runs only these) and tabulates height²/t and the exponent
+# n (`analysis.front_growth`) against the reference's: which physical quantities set it, and
+# whether the numerical damping (the bulk viscosity) does.
+
+# +
+VARIANTS = {"reference": [], "bulk viscosity off": ["numerics.bulk_viscosity=[0.0, 0.0]"],
+            "bulk viscosity doubled": ["numerics.bulk_viscosity=[0.12, 2.4]"],
+            "ψ 0": ["material.dilation_angle=0.0"], "E × 4": ["material.youngs_modulus=2.2e6"],
+            "E × 10": ["material.youngs_modulus=5.5e6"], "ρ × 2": ["material.density=2000.0"],
+            "E and ρ × 2": ["material.youngs_modulus=1.1e6", "material.density=2000.0"],
+            "g × 2": ["loads.gravity=19.62"], "g and E × 2": ["loads.gravity=19.62", "material.youngs_modulus=1.1e6"],
+            "ν 0.2": ["material.poisson_ratio=0.2"], "wall μ 0.5": ["wall.mu=0.5"], "smooth wall": ["wall.mu=0.01"],
+            "outlet radius × 2": ["geometry.outlet_radius=0.2"]}
+QUICK = ["geometry.element_size=0.04", "fill.layers=5", "fill.duration=5.0", "store.duration=1.0",
+         "discharge.duration=6.0"]
+FRONTS = Path("results") / "ch4_front_variants"
+
+
+def front_growth(folder):
+    """(n, height²/t) of the failure front of a run's discharge, or None without its record."""
+    zones, summary = read_csv(folder / "shear_zones.csv"), read_summary(folder)
+    if zones is None or summary.get("status") != "completed":
+        return None
+    n = int(zones["band"].max()) + 1
+    t_open = summary["stages"][-1]["t_start"]
+    tz = zones["t"].reshape(-1, n)[:, 0]
+    after = tz >= t_open
+    centres = 0.5 * (zones["z_low"][:n] + zones["z_high"][:n])
+    ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, zones["yielded_fraction"].reshape(-1, n).T[:, after])
+    return analysis.front_growth(ta, za - zones["z_low"][0]) if ta.size >= 3 else None
+
+
+if args.front_variants:
+    for name, sets in VARIANTS.items():
+        folder = FRONTS / f"v{list(VARIANTS).index(name):02d}"
+        if read_summary(folder).get("status") != "completed":  # a variant already run is measured again, not re-run
+            say(f"--- front variant: {name}")
+            try:
+                run(load_scene(HERE / "scenes" / "hopper_ch4.toml", QUICK + sets), folder, comm, progress_every=1e9)
+            except Exception as e:  # a variant that arches or stops is a row that says so, not the end of the table
+                say(f"    {name}: {type(e).__name__}: {e}")
+            comm.barrier()
+    if comm.rank == 0:
+        growth = {name: front_growth(FRONTS / f"v{k:02d}") for k, name in enumerate(VARIANTS)}
+        base = growth["reference"]
+        lines = ["| variant (the --quick reference, one change) | height²/t (m²/s) | n | against the reference |",
+                 "|---|---|---|---|"]
+        for name, sets in VARIANTS.items():
+            g = growth[name]
+            lines.append(f"| {name} ({', '.join(sets) or 'as the scene'}) | " +
+                         (f"{g[1]:.2f} | {g[0]:.2f} | × {g[1] / base[1]:.2f} |" if g and base else
+                          "no front (the run stopped or did not discharge) |  |  |"))
+        table = "\n".join(lines)
+        FRONTS.mkdir(parents=True, exist_ok=True)
+        (FRONTS / "table.md").write_text(table + "\n")
+        print(table)
 # -

@@ -370,5 +370,5 @@ def test_the_mobilised_strength_is_one_on_every_yield_surface():
     p = 1e4
     over = np.array([[-p, -p, -p, 1.2 * p * law.tan_beta / math.sqrt(3.0)]])
     assert vp.mobilised_strength(over, np.empty(1))[0] == pytest.approx(1.2, rel=1e-12)
-    with pytest.raises(NotImplementedError, match="no yield surface"):
+    with pytest.raises(TypeError, match="no yield surface"):
         Elastic(E, NU, RHO).mobilised_strength(over, np.empty(1))

@@ -47,8 +47,9 @@ class Material(ABC):
         """The share of its shear strength each of the (n, 4) stresses mobilises, written into
         ``out`` (n,) and returned: 1 on the yield surface (above 1: a rate-dependent law's
         overstress), below 1 inside it; NaN at or beyond the apex, where the solid has no shear
-        strength (a separated point). Only a plastic law has one."""
-        raise NotImplementedError(f"the {self.name} law has no yield surface")
+        strength (a separated point). Only a plastic law has one: asking an elastic law is a
+        misuse (the shear-zone stream is built for plastic solids only), a TypeError."""
+        raise TypeError(f"the {self.name} law has no yield surface: a mobilised strength needs a plastic law")
 
     @property
     def rate_independent(self) -> Material:

@@ -293,27 +293,36 @@ if comm.rank == 0:
 # record shifted in time; between re-meshes, which step both together).
 
 # +
+def front_of(folder):
+    """The failure front of a run's discharge (``analysis.failure_front`` of its
+    shear_zones.csv, times after the opening): (times, band heights, the outlet's height), or
+    None without the record or a completed run."""
+    zones, summary = read_csv(folder / "shear_zones.csv"), read_summary(folder)
+    if zones is None or summary.get("status") != "completed":
+        return None
+    n = int(zones["band"].max()) + 1
+    t_open = summary["stages"][-1]["t_start"]
+    tz = zones["t"].reshape(-1, n)[:, 0]
+    after = tz >= t_open
+    centres = 0.5 * (zones["z_low"][:n] + zones["z_high"][:n])
+    ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, zones["yielded_fraction"].reshape(-1, n).T[:, after])
+    return ta, za, float(zones["z_low"][0])
+
+
 if comm.rank == 0:
     lines = ["| case | failure front: the highest band it passes, when | its speed: over all / top third | height ∝ tⁿ: n, "
              "height²/t | largest < 1 Hz p_n (station, RMS) follows | r against chance | stations beyond chance |",
              "|---" * 7 + "|"]
     for c in have:
         folder = OUT / CASES[c]
-        zones = read_csv(folder / "shear_zones.csv")
-        if zones is None:
-            lines.append(f"| {c} | not recorded (a run before output.zone_bands) |  |  |  |  |  |")
+        front = front_of(folder)
+        if front is None:
+            lines.append(f"| {c} | no front (no shear_zones.csv, or the run did not complete) |  |  |  |  |  |")
             continue
-        r = Report(folder)
-        r.shear_zones()  # shear_zones.png and zone_following.csv
-        n = int(zones["band"].max()) + 1
-        t_open = read_summary(folder)["stages"][-1]["t_start"]
-        tz = zones["t"].reshape(-1, n)[:, 0]
-        after = tz >= t_open
-        centres = 0.5 * (zones["z_low"][:n] + zones["z_high"][:n])
-        yielded = zones["yielded_fraction"].reshape(-1, n).T[:, after]
-        ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, yielded)
+        Report(folder).shear_zones()  # shear_zones.png and zone_following.csv
+        ta, za, z_outlet = front
         third = max(2, za.size // 3)
-        growth = analysis.front_growth(ta, za - zones["z_low"][0]) if ta.size >= 3 else (np.nan, np.nan)
+        growth = analysis.front_growth(ta, za - z_outlet) if ta.size >= 3 else (np.nan, np.nan)
         front = (f"z {za[-1]:.2f} m, {ta[-1]:.2f} s", f"{analysis.front_speed(ta, za):.2f} / "
                  f"{analysis.front_speed(ta[-third:], za[-third:]):.2f} m/s",
                  f"{growth[0]:.2f}, {growth[1]:.2f} m²/s") if ta.size >= 3 else ("–", "–", "–")
@@ -356,17 +365,9 @@ FRONTS = Path("results") / "ch4_front_variants"
 
 
 def front_growth(folder):
-    """(n, height²/t) of the failure front of a run's discharge, or None without its record."""
-    zones, summary = read_csv(folder / "shear_zones.csv"), read_summary(folder)
-    if zones is None or summary.get("status") != "completed":
-        return None
-    n = int(zones["band"].max()) + 1
-    t_open = summary["stages"][-1]["t_start"]
-    tz = zones["t"].reshape(-1, n)[:, 0]
-    after = tz >= t_open
-    centres = 0.5 * (zones["z_low"][:n] + zones["z_high"][:n])
-    ta, za, _ = analysis.failure_front(tz[after] - t_open, centres, zones["yielded_fraction"].reshape(-1, n).T[:, after])
-    return analysis.front_growth(ta, za - zones["z_low"][0]) if ta.size >= 3 else None
+    """(n, height²/t) of the failure front of a run's discharge, or None without it."""
+    front = front_of(folder)
+    return analysis.front_growth(front[0], front[1] - front[2]) if front and front[0].size >= 3 else None
 
 
 if args.front_variants:

@@ -17,6 +17,9 @@ from silo_dolfinx.invariants import stress_ratio as _ratio
 
 
 # ---------------------------------------------------------------------------- time series
+LOW_CUTOFF = 1.0  # Hz: the thesis' "< 1 Hz" slip-stick / intermittent-arching fluctuation
+
+
 def time_average(t, values, t_start: float, t_end: float):
     """Eq. 4-9 / 6-1: mean of the samples with t_start ≤ t ≤ t_end (along axis 0)."""
     t = np.asarray(t, float)
@@ -114,14 +117,63 @@ def averaged_spectrum(t, x, segments: int = 6, t_start: float | None = None, t_e
     that persists through the record (the fill's longitudinal mode, Fig. 4-12's peak in every
     window) stands out; a transient that one window happens to catch is averaged down. The
     resolution is that of one window, segments/T."""
+    f, power = _welch_power(t, x, segments, t_start, t_end)
+    return Spectrum(f, np.sqrt(2.0 * power), float(f[1]))
+
+
+def _welch_power(t, x, segments, t_start, t_end, segment_samples: int | None = None):
+    """(frequencies, Welch power per bin) of the record in [t_start, t_end], resampled uniformly,
+    in half-overlapping Hann segments of ``segment_samples`` (default: the record over
+    ``segments``), each linearly detrended."""
     from scipy import signal as sps
 
     t, x = _window(t, x, t_start, t_end, 8 * segments, "an averaged spectrum")
     tu = np.linspace(t[0], t[-1], t.size)
     fs = (t.size - 1) / (t[-1] - t[0])
-    f, power = sps.welch(np.interp(tu, t, x), fs=fs, window="hann", nperseg=t.size // segments,
-                         detrend="linear", scaling="spectrum")
-    return Spectrum(f, np.sqrt(2.0 * power), float(f[1]))
+    return sps.welch(np.interp(tu, t, x), fs=fs, window="hann", nperseg=segment_samples or t.size // segments,
+                     detrend="linear", scaling="spectrum")
+
+
+@dataclass
+class EnsemblePeak:
+    spectrum: Spectrum  # the realisations' mean Welch power, as amplitudes
+    frequency: float  # its largest peak above min_frequency (Hz; NaN if none)
+    interval: tuple[float, float]  # the peak's bootstrap interval over the realisations (Hz)
+    each: np.ndarray  # every realisation's own Welch peak (Hz), as `averaged_spectrum` finds it
+
+
+def ensemble_peak(records, segments: int = 6, min_frequency: float = LOW_CUTOFF, t_start: float | None = None,
+                  t_end: float | None = None, level: float = 0.9, draws: int = 2000) -> EnsemblePeak:
+    """The spectral peak of a chaotic signal from several realisations of it (the same run with
+    an immaterial change, e.g. Δt × 0.99): ``records`` is a list of (t, x). One realisation's
+    highest bin hops within a broad hump from run to run; the quantity its periodograms
+    estimate is the power spectral density, and the mean of the realisations' Welch powers
+    (segments of one common length: the shortest record over ``segments``) estimates it with
+    their number times fewer fluctuations. Its largest peak above ``min_frequency`` is the
+    ensemble's; its ``level`` interval is the percentile bootstrap over the realisations
+    (resampled with replacement ``draws`` times, seeded: reproducible)."""
+    cut = [_window(t, x, t_start, t_end, 8 * segments, "an ensemble spectrum") for t, x in records]
+    rate = min((tk.size - 1) / (tk[-1] - tk[0]) for tk, _ in cut)
+    nseg = (int(round(min((tk[-1] - tk[0]) for tk, _ in cut) * rate)) + 1) // segments
+    powers, each = [], []
+    for tk, xk in cut:  # one sampling rate for all: the same frequency bins
+        tu = np.arange(tk[0], tk[-1] + 0.5 / rate, 1.0 / rate)
+        f, pk = _welch_power(tu, np.interp(tu, tk, xk), segments, None, None, nseg)
+        powers.append(pk)
+        one = Spectrum(f, np.sqrt(2.0 * pk), float(f[1])).peaks(1, min_frequency=min_frequency)
+        each.append(float(one[0]) if one.size else np.nan)
+    powers = np.array(powers)
+
+    def peak(p):
+        found = Spectrum(f, np.sqrt(2.0 * p), float(f[1])).peaks(1, min_frequency=min_frequency)
+        return float(found[0]) if found.size else np.nan
+
+    rng = np.random.default_rng(0)
+    boot = np.array([peak(powers[rng.integers(0, len(powers), len(powers))].mean(axis=0)) for _ in range(draws)])
+    lo, hi = np.nanpercentile(boot, [50 * (1 - level), 50 * (1 + level)])
+    mean = powers.mean(axis=0)
+    return EnsemblePeak(Spectrum(f, np.sqrt(2.0 * mean), float(f[1])), peak(mean), (float(lo), float(hi)),
+                        np.array(each))
 
 
 @dataclass
@@ -188,9 +240,6 @@ def travelling_wave(x, ratio, frequency: float) -> TravellingWave:
     growth = np.polyfit(x, np.log(np.abs(h)), 1)[0]
     residual = float(np.sqrt(np.mean((phase - (phi0 + slope * x)) ** 2)))
     return TravellingWave(-2.0 * np.pi * frequency / slope if slope != 0 else np.inf, float(growth), residual)
-
-
-LOW_CUTOFF = 1.0  # Hz: the thesis' "< 1 Hz" slip-stick / intermittent-arching fluctuation
 
 
 def low_frequency_fluctuation(t, x, t_start: float | None = None, t_end: float | None = None,

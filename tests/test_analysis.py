@@ -581,3 +581,48 @@ def test_front_growth_tells_a_diffusing_front_from_one_at_a_constant_speed():
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no ill-conditioned fit: bands failing at once have no growth
         assert np.isnan(analysis.front_growth([1.0, 1.0, 1.0], [0.1, 0.2, 0.3])[0])
+
+
+def _hump_records(seed: int, count: int = 6):
+    """``count`` 30-s records at 200 Hz of a chaotic pulsing pressure: a broad resonance (white
+    noise through the two-pole filter with poles 0.97 e^{±iω0}, ω0 = 5 Hz: a hump ~2 Hz wide,
+    like point e's 3.8-5.9 Hz one), 100 Pa RMS, on a 300-Pa random walk and a 4-kPa mean; and
+    the peak of the filter's power spectrum, cos ω_p = (1 + r²) cos ω0 / 2r (4.906 Hz)."""
+    from scipy import signal as sps
+
+    rate, r, w0 = 200.0, 0.97, 2 * math.pi * 5.0 / 200.0
+    t = np.arange(0.0, 30.0, 1.0 / rate)
+    rng = np.random.default_rng(seed)
+    records = []
+    for _ in range(count):
+        hump = sps.lfilter([1.0], [1.0, -2 * r * math.cos(w0), r * r], rng.standard_normal(t.size + 2000))[2000:]
+        walk = np.cumsum(rng.standard_normal(t.size))
+        records.append((t, 4000.0 + 100.0 * hump / hump.std() + 300.0 * (walk - walk.mean()) / walk.std()))
+    return records, math.acos((1 + r * r) * math.cos(w0) / (2 * r)) * rate / (2 * math.pi)
+
+
+def test_ensemble_peak_finds_a_broad_humps_peak_one_realisation_misses():
+    """A broad hump's highest bin hops from realisation to realisation (the ch. 4 point-e
+    spectrum: 4.0-5.4 Hz between runs of one scene). Over 12 sets of six realisations, each
+    realisation's own Welch peak (what `averaged_spectrum` reports) misses the hump's true
+    4.906-Hz peak by 0.23 Hz in the median, the ensemble's by a third of that (0.33×): asked
+    ≤ 0.5× (a mean of six independent peaks would give 1/√6 = 0.41× on average; one
+    realisation's error, 1×, fails it), and its 90 % interval covers the true peak in at least 9
+    of 12 (10 measured; the percentile bootstrap over six draws under-covers a little: 28 of 30
+    in a trial). Each realisation's peak is exactly `averaged_spectrum`'s, and a tone common to
+    all shows its amplitude (the scaling)."""
+    single, ensemble, covered = [], [], 0
+    for seed in range(12):
+        records, true = _hump_records(seed)
+        e = analysis.ensemble_peak(records, draws=300)
+        single.extend(np.abs(e.each - true))
+        ensemble.append(abs(e.frequency - true))
+        covered += e.interval[0] <= true <= e.interval[1]
+        if seed == 0:
+            for (t, x), f in zip(records, e.each):
+                assert f == analysis.averaged_spectrum(t, x).peaks(1, min_frequency=1.0)[0]
+    assert np.median(ensemble) <= 0.5 * np.median(single), (np.median(ensemble), np.median(single))
+    assert covered >= 9, covered
+    t = np.arange(0.0, 30.0, 1.0 / 200.0)
+    tone = analysis.ensemble_peak([(t, 100.0 * np.sin(2 * math.pi * 6.0 * t))] * 3, draws=10)
+    assert abs(tone.frequency - 6.0) < 0.01 and abs(tone.spectrum.amplitude.max() / 100.0 - 1.0) < 0.01

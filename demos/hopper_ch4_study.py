@@ -416,8 +416,9 @@ if args.front_variants:
 
 # +
 def realisations_of(case):
-    """The completed realisation folders of a case."""
-    folders = [OUT / "realisations" / f"{CASES[case]}_r{k}" for k in range(args.realisations)]
+    """The completed realisation folders of a case, all there are (an earlier, larger
+    --realisations included), in the order of their time steps."""
+    folders = sorted((OUT / "realisations").glob(f"{CASES[case]}_r*"), key=lambda f: int(f.name.rsplit("_r", 1)[1]))
     return [f for f in folders if read_summary(f).get("status") == "completed"]
 
 

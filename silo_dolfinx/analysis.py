@@ -497,6 +497,38 @@ def front_growth(t, height, late: float = 0.05) -> tuple[float, float]:
     return float(exponent), float(np.sum(height[keep] ** 2 * t[keep]) / np.sum(t[keep] ** 2))
 
 
+@dataclass
+class EventSteps:
+    step: np.ndarray  # the mean over `window` after each event minus the mean over `window` before it
+    exceedance: np.ndarray  # the share of the instants away from every event whose |step| is at least as large
+    typical: float  # the median |step| at those instants
+
+
+def event_steps(t, x, events, window: float, t_start: float, t_end: float) -> EventSteps:
+    """Whether a record steps at given instants (a re-mesh, a stage change) more than it steps
+    anyway: the step at each event, mean over (e, e + window] minus mean over [e − window, e),
+    against the same statistic at every instant of a grid (spacing window/4) in
+    [t_start + window, t_end − window] at least 2·window from every event - as an empirical
+    exceedance: 0.01 means one instant in a hundred steps as much without an event. A pulsing
+    record steps by its pulses' size; only an event whose exceedance is small stepped it.
+    Events within ``window`` of either end get NaN."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    events = np.asarray(events, float)
+
+    def step(e):
+        before, after = (t >= e - window) & (t < e), (t > e) & (t <= e + window)
+        return x[after].mean() - x[before].mean() if before.any() and after.any() else np.nan
+
+    grid = np.arange(t_start + window, t_end - window, 0.25 * window)
+    if events.size:
+        grid = grid[np.min(np.abs(grid[:, None] - events[None, :]), axis=1) >= 2.0 * window]
+    quiet = np.abs(np.array([step(e) for e in grid]))
+    quiet = quiet[np.isfinite(quiet)]
+    steps = np.array([step(e) if t_start + window <= e <= t_end - window else np.nan for e in events])
+    exceed = np.array([np.mean(quiet >= abs(s)) if np.isfinite(s) and quiet.size else np.nan for s in steps])
+    return EventSteps(steps, exceed, float(np.median(quiet)) if quiet.size else np.nan)
+
+
 def switch_time(t, p, t_open: float, cutoff: float = LOW_CUTOFF) -> float:
     """When a station's wall pressure has switched from the filled state to the flowing one: the
     first time after ``t_open`` that its part below ``cutoff`` (zero-phase 4th-order

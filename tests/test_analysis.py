@@ -626,3 +626,20 @@ def test_ensemble_peak_finds_a_broad_humps_peak_one_realisation_misses():
     t = np.arange(0.0, 30.0, 1.0 / 200.0)
     tone = analysis.ensemble_peak([(t, 100.0 * np.sin(2 * math.pi * 6.0 * t))] * 3, draws=10)
     assert abs(tone.frequency - 6.0) < 0.01 and abs(tone.spectrum.amplitude.max() / 100.0 - 1.0) < 0.01
+
+
+def test_event_steps_tells_a_step_from_a_pulsing_records_own_steps():
+    """A 500-Pa, 5-Hz wave with white noise (σ 50 Pa, 200 Hz) that steps up 200 Pa at 20 s;
+    events at 20 s, 40 s (nothing happens) and 59.9 s (too near the end). With 0.4-s windows
+    (two periods: the wave's mean is zero in each) the step is 200 Pa within 30 (the noise's
+    two 80-sample means differ by σ·√(2/80) = 7.9 Pa: ~4σ), no quiet instant steps as much
+    (exceedance 0), the null event is one of the quiet ones (exceedance > 0.05), the last gets
+    NaN; the typical quiet step is the median |N(0, 7.9)| = 5.3 Pa within 30 %."""
+    rate = 200.0
+    t = np.arange(0.0, 60.0, 1.0 / rate)
+    rng = np.random.default_rng(3)
+    x = 5000.0 + 500.0 * np.sin(2 * math.pi * 5.0 * t) + 50.0 * rng.standard_normal(t.size) + 200.0 * (t > 20.0)
+    st = analysis.event_steps(t, x, [20.0, 40.0, 59.9], 0.4, 0.0, 60.0)
+    assert st.step[0] == pytest.approx(200.0, abs=30.0) and st.exceedance[0] == 0.0
+    assert st.exceedance[1] > 0.05 and np.isnan(st.step[2]) and np.isnan(st.exceedance[2])
+    assert st.typical == pytest.approx(0.674 * 50.0 * math.sqrt(2.0 / 80.0), rel=0.3)

@@ -233,7 +233,7 @@ def test_report_measures_the_pulsing_of_known_wall_signals(synthetic):
     assert (synthetic / "wall_dynamics.png").is_file() and (synthetic / "discharge_pressures.png").is_file()
 
 
-def write_zones(d, steps: tuple[float, ...] = ()):
+def write_zones(d, steps: tuple[float, ...] = (), size: float = 400.0):
     """Into the synthetic folder ``d``: wall_history.csv with three stations (z 0.33, 0.66, 1.32
     m) switching at the opening (12 s) from 3 to 5 kPa within 50 ms, then slow noise of RMS 300,
     600 and 200 Pa, and shear_zones.csv of ten bands over 0-2.64 m: the outlet band failed
@@ -241,7 +241,7 @@ def write_zones(d, steps: tuple[float, ...] = ()):
     climbing at 2 m/s reaches their centre, then failing 40 % ± slow noise (RMS 6 %; band 7,
     z 1.85-2.11 m: 12 %, the middle station's noise 0.3 s later). ``steps``: times at which the
     lowest station's pressure and band 3's separated share step together, alternately up (by
-    400 Pa and 0.3) and back."""
+    ``size`` Pa and 0.3) and back."""
     t = np.arange(0.0, 72.0, 0.005)
     t_open = 12.0
     noise = [slow_noise(t, seed=k) for k in range(3)]
@@ -249,7 +249,7 @@ def write_zones(d, steps: tuple[float, ...] = ()):
     rows = []
     for k, (z, amplitude) in enumerate(zip((0.33, 0.66, 1.32), (300.0, 600.0, 200.0))):
         p = np.where(t < t_open, 3000.0, 5000.0 - 2000.0 * np.exp(-(t - t_open) / 0.05) + amplitude * noise[k])
-        rows += [[ti, k, z, 0.1 + z * 0.4, z, pi, 0.267 * pi, -0.1] for ti, pi in zip(t, p + (400.0 * up if k == 0 else 0.0))]
+        rows += [[ti, k, z, 0.1 + z * 0.4, z, pi, 0.267 * pi, -0.1] for ti, pi in zip(t, p + (size * up if k == 0 else 0.0))]
     rows.sort(key=lambda r: r[0])
     write_csv(d / "wall_history.csv", ["t", "station", "s", "r", "z", "p_n", "p_s", "slip_velocity"], rows)
     edges = np.linspace(0.0, 2.64, 11)
@@ -333,6 +333,35 @@ def test_a_re_mesh_that_steps_a_pressure_and_a_band_together_is_no_link(syntheti
     assert (table["t_from"][0], table["t_to"][0]) == (38.0, 60.0) and table["bands"][0] == 9
     assert abs(table["correlation"][0]) < table["chance"][0]
     assert any("the longest stretch without a re-mesh" in k for k, _ in r.numbers)
+
+
+def test_the_report_finds_the_station_a_re_mesh_stepped(synthetic):
+    """The lowest station steps 1.5 kPa up at 30 s and back at 50 s on its slow noise (RMS 300
+    Pa: its 0.5-s means step by 170 Pa in the median), the re-meshes in summary.json:
+    remesh_steps.csv finds both at that station, +1.5 / −1.5 kPa within 0.4 kPa (the noise's
+    0.5-s means moved the 400-Pa steps of the test above by up to 200 Pa), beyond all but one
+    instant in a hundred of the station's own steps; the two other stations, whose noise is all
+    they have, stay within their own steps (exceedance > 0.05; 0.36-0.72 measured). Without
+    re-meshes there is nothing to measure and no file."""
+    from silo_dolfinx.report import Report
+
+    write_zones(synthetic, steps=(30.0, 50.0), size=1500.0)
+    r = Report(synthetic)
+    r.remesh_steps()
+    assert not (synthetic / "remesh_steps.csv").exists() and not r.missing
+    s = json.loads((synthetic / "summary.json").read_text())
+    s["stages"][-1]["rezones"] = [{"t": 30.0}, {"t": 50.0}]
+    (synthetic / "summary.json").write_text(json.dumps(s))
+    r = Report(synthetic)
+    r.remesh_steps()
+    table = read_csv(synthetic / "remesh_steps.csv")
+    low = np.isclose(table["z"], 0.33)
+    assert table["t"][low] == pytest.approx([18.0, 38.0])
+    assert table["step"][low] == pytest.approx([1500.0, -1500.0], abs=400.0)
+    assert np.all(table["exceedance"][low] < 0.01)
+    assert np.all(table["exceedance"][~low] > 0.05)
+    key = next(v for k, v in r.numbers if k.startswith("re-meshes (2)"))
+    assert key.startswith("2 of 6 station-re-meshes beyond 1 % exceedance") and key.endswith("at z 0.33 m")
 
 
 @pytest.fixture

@@ -216,6 +216,18 @@ ZONE_FOLLOWING = CsvFile("zone_following.csv", "Written by `silo report`: whethe
     C("bands", "-", "how many band records were searched (shares with a whole record that varies)"),
 ))
 
+REMESH_STEPS = CsvFile("remesh_steps.csv", "Written by `silo report` for a discharge that was meshed again "
+                       "(ale.rezone_*): whether each re-mesh stepped each station's wall pressure more than the "
+                       "pressure steps anyway (analysis.event_steps: the mean over 0.5 s after the re-mesh minus the "
+                       "mean over 0.5 s before it, against the same at every instant of the discharge after its "
+                       "start-up that is at least 1 s from a re-mesh).", (
+    C("t", "s", "the re-mesh, this long after the opening"), C("z", "m", "height of the station"),
+    C("step", "Pa", "p_n's mean over 0.5 s after the re-mesh minus its mean over 0.5 s before"),
+    C("typical", "Pa", "the median |step| of the station's p_n at the instants away from every re-mesh"),
+    C("exceedance", "-", "the share of those instants whose |step| is at least as large: below 0.01, the re-mesh "
+      "stepped the pressure"),
+))
+
 RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a controlled discharge of a column "
                       "(thesis ch. 5): the rarefaction wave launched by the pull, per interior point (output.points; "
                       "the axis in the ch. 5 scenes), before the top's reflection reaches it.", (
@@ -238,7 +250,7 @@ FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a disch
 
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, SHEAR_ZONES, OUTLET, MESH_QUALITY,
                               TRACERS, DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, PULSE_TRAVEL,
-                              ZONE_FOLLOWING, RAREFACTION, FLOW_CHANNEL)
+                              ZONE_FOLLOWING, REMESH_STEPS, RAREFACTION, FLOW_CHANNEL)
 
 
 def for_file(filename: str) -> CsvFile | None:

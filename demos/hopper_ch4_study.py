@@ -23,6 +23,7 @@
 #     mpirun -n 2 python demos/hopper_ch4_study.py           # the scenes as given (hours)
 #     ... --cases stiff,smooth --discharge 20                # some cases, shorter discharges
 #     ... --reuse                                           # run nothing: tables from the results there
+#     ... --discharge 30 --reuse --realisations 6             # six realisations of the reference only (~30 min)
 #
 # A case's folder is results/ch4_study[_quick]/<scene>; `--reuse` measures what is there, each
 # case with the discharge it was run with (the cost table lists it).

@@ -149,8 +149,8 @@ def ensemble_peak(records, segments: int = 6, min_frequency: float = LOW_CUTOFF,
     highest bin hops within a broad hump from run to run; the quantity its periodograms
     estimate is the power spectral density, and the mean of the realisations' Welch powers
     (segments of one common length: the shortest record over ``segments``) estimates it with
-    their number times fewer fluctuations. Its largest peak above ``min_frequency`` is the
-    ensemble's; its ``level`` interval is the percentile bootstrap over the realisations
+    1/N of one realisation's variance (N realisations). Its largest peak above
+    ``min_frequency`` is the ensemble's; its ``level`` interval is the percentile bootstrap over the realisations
     (resampled with replacement ``draws`` times, seeded: reproducible)."""
     cut = [_window(t, x, t_start, t_end, 8 * segments, "an ensemble spectrum") for t, x in records]
     rate = min((tk.size - 1) / (tk[-1] - tk[0]) for tk, _ in cut)

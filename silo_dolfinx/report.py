@@ -887,7 +887,7 @@ class Report:
             return
         self._table(REMESH_STEPS, rows)
         stepped = [r for r in rows if r[4] < 0.01]
-        text = f"{len(stepped)} of {len(rows)} station-re-meshes beyond 1 % exceedance"
+        text = f"{len(stepped)} of {len(rows)} station-re-meshes beyond 1 % exceedance (chance alone: 1 in 100)"
         if stepped:
             worst = max(stepped, key=lambda r: abs(r[2]) / r[3])
             text += (f"; the largest {worst[2]:+.3g} Pa ({abs(worst[2]) / worst[3]:.1f} × the typical step) at "
@@ -1466,7 +1466,8 @@ class Report:
     def write(self) -> Path:
         for part in (self.wall_profiles, self.wall_histories, self.point_histories, self.spectra, self.discharge_pressures,
                      self.design_pressures,
-                     self.wall_dynamics, self.pulse_travel, self.shear_zones, self.remesh_steps, self.rarefaction, self.outlet, self.flow_channel,
+                     self.wall_dynamics, self.pulse_travel, self.shear_zones, self.remesh_steps, self.rarefaction,
+                     self.outlet, self.flow_channel,
                      self.mesh_quality, self.flow_pattern, self.energy, self.renders, self.stress_fields,
                      *([self.movie] if self.with_movie else [])):
             try:

@@ -5,6 +5,7 @@
     silo run SCENE --out results/NAME [--set ...]      run the scene, write the results folder
     silo run --resume results/NAME                     continue a killed run from its last checkpoint
     silo report results/NAME [--movie]                 figures + report.md from a results folder
+    silo report results/NAME --ensemble results/N2 ...  wall spectra over realisations of one scene
     silo shear --out results/shear [--cone thesis]     the ch. 8 simple-shear study (Table 8-1)
     silo schema [--results]                            print the scene (or results-file) reference
 
@@ -57,6 +58,10 @@ def _parser() -> argparse.ArgumentParser:
                          "2 s into the discharge, its end)")
     sp.add_argument("--movie", action="store_true",
                     help="also discharge.gif: speed, tracers and q/p through the discharge, a frame per field snapshot")
+    sp.add_argument("--ensemble", nargs="+", metavar="OTHER",
+                    help="instead: the wall spectra over realisations - FOLDER and these results folders of the same "
+                         "scene with an immaterial change (e.g. --set numerics.time_step_scale=0.792): "
+                         "ensemble_spectra.csv/.png in FOLDER")
     sp = sub.add_parser("shear", help="thesis ch. 8 simple shear, Table 8-1, coaxial vs non-coaxial")
     sp.add_argument("--out", required=True, help="folder for CSV and PNG files")
     sp.add_argument("--cone", "--matching", dest="cone", default="plane_strain",
@@ -200,10 +205,11 @@ def _mesh(args) -> int:
 def _report(args) -> int:
     if _rank() != 0:
         return 0
-    from silo_dolfinx.report import make_report
+    from silo_dolfinx.report import ensemble_spectra, make_report
 
     try:
-        path = make_report(args.folder, args.times, args.movie)
+        path = (ensemble_spectra([args.folder, *args.ensemble]) if args.ensemble else
+                make_report(args.folder, args.times, args.movie))
     except FileNotFoundError as e:
         _error(f"error: {e}")
         return 2

@@ -1507,6 +1507,62 @@ def _spread(points: np.ndarray, spacing: float) -> np.ndarray:
     return np.sort(first)
 
 
+def ensemble_spectra(folders: list[str | Path]) -> Path:
+    """`silo report FOLDER --ensemble OTHER ...`: the wall pressure's spectrum at every station
+    over several realisations of one scene (the same run with an immaterial change - Δt × 0.99,
+    another rank count - whose instants differ, a chaotic discharge's peaks with them), by
+    :func:`analysis.ensemble_peak`: the mean of their Welch spectra over the window each
+    station's dynamics are measured on (as wall_dynamics.csv: after the start-up and the
+    station's switch, the latest start among the realisations), its largest peak above 1 Hz
+    with a 90 % interval, and the spread of each realisation's own. Writes ensemble_spectra.csv
+    and .png into the first folder; returns the CSV's path."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from silo_dolfinx.output.schema import ENSEMBLE_SPECTRA
+
+    reports = [Report(f) for f in folders]
+    histories = []
+    for r in reports:
+        d = r._discharge_history()
+        if d is None:
+            raise FileNotFoundError(f"{r.folder}: no discharge in its wall_history.csv: an ensemble needs one in each")
+        histories.append((d[0], (d[1], r._settled(d[1], d[2]), d[2])))
+    rows, spectra = [], []
+    for k in np.unique(histories[0][0]["station"]):
+        windows = [r._after_switch(h, k, times) for r, (h, times) in zip(reports, histories)]
+        if any(w is None or w[0] is None for w in windows):
+            continue
+        records = [(h["t"][w[0]], h["p_n"][w[0]]) for (h, _), w in zip(histories, windows)]
+        ens = analysis.ensemble_peak(records, t_start=max(w[1] for w in windows))
+        z = float(np.mean(histories[0][0]["z"][histories[0][0]["station"] == k]))
+        rows.append([int(k), z, ens.frequency, *ens.interval, float(np.nanmin(ens.each)), float(np.nanmax(ens.each)),
+                     len(records)])
+        spectra.append((z, ens.spectrum))
+    if not rows:
+        raise FileNotFoundError("no station has a long enough discharge record in every folder")
+    first = reports[0]
+    first._table(ENSEMBLE_SPECTRA, rows)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for z, sp in spectra:
+        ax.plot(sp.frequency, sp.amplitude, lw=1, label=f"z = {z:.2f} m")
+    if first.scene is not None:
+        m, hf = first.scene.material, first.scene.geometry.fill_height
+        ax.axvline(theory.longitudinal_frequency(m.youngs_modulus, m.poisson_ratio, m.density, hf), color="r",
+                   ls="--", lw=1, label=f"eq. 4-12 (H = {hf:g} m)")
+    ax.set_xscale("log")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("amplitude of p_n (Pa)")
+    ax.set_title(f"The mean spectrum of {len(reports)} realisations at each wall station", fontsize=9)
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(first.folder / "ensemble_spectra.png", dpi=120)
+    plt.close(fig)
+    return first.folder / ENSEMBLE_SPECTRA.pattern
+
+
 def make_report(folder: str | Path, times: list[float] | None = None, movie: bool = False) -> Path:
     """Write every figure the folder's files allow and report.md (the stress fields at
     ``times``, default: see :meth:`Report.stress_fields`; with ``movie``, discharge.gif);

@@ -364,6 +364,38 @@ def test_the_report_finds_the_station_a_re_mesh_stepped(synthetic):
     assert key.startswith("2 of 6 station-re-meshes beyond 1 % exceedance") and key.endswith("at z 0.33 m")
 
 
+def test_report_ensemble_finds_the_tone_the_realisations_share(synthetic, tmp_path, capsys):
+    """Three realisations of the synthetic discharge: each station's 5-Hz, 150-Pa tone and
+    0.7-Hz swing as before, plus white noise of σ 300 Pa, different in each (a chaotic run's
+    instants). `silo report A --ensemble B C` finds 5 Hz at every station within a bin (0.1 Hz:
+    six segments of the 58-s window), each realisation too, the interval about it; a folder
+    without a discharge is refused with exit 2 and a message naming it."""
+    import shutil
+
+    folders = []
+    for i in range(3):
+        d = tmp_path / f"real{i}"
+        shutil.copytree(synthetic, d)
+        h = read_csv(d / "wall_history.csv")
+        rng = np.random.default_rng(i)
+        p = h["p_n"] + 300.0 * rng.standard_normal(h["p_n"].size)
+        write_csv(d / "wall_history.csv", ["t", "station", "s", "r", "z", "p_n", "p_s", "slip_velocity"],
+                  np.column_stack([h["t"], h["station"], h["s"], h["r"], h["z"], p, h["p_s"], h["slip_velocity"]]))
+        folders.append(d)
+    assert main(["report", str(folders[0]), "--ensemble", *map(str, folders[1:])]) == 0
+    table = read_csv(folders[0] / "ensemble_spectra.csv")
+    assert table["z"] == pytest.approx([0.33, 0.66, 1.32]) and np.all(table["realisations"] == 3)
+    for col in ("frequency", "low", "high", "each_min", "each_max"):
+        assert np.all(np.abs(table[col] - 5.0) < 0.1), (col, table[col])
+    assert (folders[0] / "ensemble_spectra.png").exists()
+    bare = tmp_path / "bare"
+    shutil.copytree(synthetic, bare)
+    (bare / "wall_history.csv").unlink()
+    capsys.readouterr()
+    assert main(["report", str(folders[0]), "--ensemble", str(bare)]) == 2
+    assert "bare: no discharge in its wall_history.csv" in capsys.readouterr().err
+
+
 @pytest.fixture
 def flat_bottom(tmp_path):
     """A ch. 6 flat-bottomed silo (R 0.35 m) discharging 32 kg/s from 3,840 kg after a 1-s

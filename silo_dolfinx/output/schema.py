@@ -228,6 +228,17 @@ REMESH_STEPS = CsvFile("remesh_steps.csv", "Written by `silo report` for a disch
       "stepped the pressure"),
 ))
 
+ENSEMBLE_SPECTRA = CsvFile("ensemble_spectra.csv", "Written by `silo report FOLDER --ensemble OTHER ...` into "
+                           "FOLDER: per wall station, the spectrum of p_n over several realisations of one scene "
+                           "(analysis.ensemble_peak: the mean of their Welch spectra over the window wall_dynamics.csv "
+                           "measures on, the latest start among them).", (
+    C("station", "-", "station index"), C("z", "m", "height of the station"),
+    C("frequency", "Hz", "the mean spectrum's largest peak above 1 Hz"),
+    C("low", "Hz", "its 90 % bootstrap interval over the realisations: lower end"), C("high", "Hz", "upper end"),
+    C("each_min", "Hz", "the lowest of the realisations' own peaks (each as wall_dynamics.csv's wave_frequency)"),
+    C("each_max", "Hz", "the highest of them"), C("realisations", "-", "how many folders"),
+))
+
 RAREFACTION = CsvFile("rarefaction.csv", "Written by `silo report` for a controlled discharge of a column "
                       "(thesis ch. 5): the rarefaction wave launched by the pull, per interior point (output.points; "
                       "the axis in the ch. 5 scenes), before the top's reflection reaches it.", (
@@ -250,7 +261,8 @@ FLOW_CHANNEL = CsvFile("flow_channel.csv", "Written by `silo report` for a disch
 
 FILES: tuple[CsvFile, ...] = (ENERGY, WALL_HISTORY, WALL_PROFILE, POINT_HISTORY, SHEAR_ZONES, OUTLET, MESH_QUALITY,
                               TRACERS, DISCHARGE_PRESSURES, DESIGN_PRESSURES, WALL_DYNAMICS, PULSE_TRAVEL,
-                              ZONE_FOLLOWING, REMESH_STEPS, RAREFACTION, FLOW_CHANNEL)
+                              ZONE_FOLLOWING, REMESH_STEPS, ENSEMBLE_SPECTRA, RAREFACTION,
+                              FLOW_CHANNEL)
 
 
 def for_file(filename: str) -> CsvFile | None:

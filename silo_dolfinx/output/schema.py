@@ -235,7 +235,8 @@ ENSEMBLE_SPECTRA = CsvFile("ensemble_spectra.csv", "Written by `silo report FOLD
     C("station", "-", "station index"), C("z", "m", "height of the station"),
     C("frequency", "Hz", "the mean spectrum's largest peak above 1 Hz"),
     C("low", "Hz", "its 90 % bootstrap interval over the realisations: lower end"), C("high", "Hz", "upper end"),
-    C("each_min", "Hz", "the lowest of the realisations' own peaks (each as wall_dynamics.csv's wave_frequency)"),
+    C("each_min", "Hz", "the lowest of the realisations' own peaks (each found as wall_dynamics.csv's wave_frequency, "
+      "over the same window)"),
     C("each_max", "Hz", "the highest of them"), C("realisations", "-", "how many folders"),
 ))
 

@@ -30,6 +30,7 @@
 
 # +
 import argparse
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -423,14 +424,20 @@ def realisations_of(case):
     return [f for f in folders if read_summary(f).get("status") == "completed"]
 
 
+@functools.cache
+def measured(folder):
+    """(wall history, wall_dynamics.csv, opening time) of a realisation, read once."""
+    return (read_csv(folder / "wall_history.csv"), read_csv(folder / "wall_dynamics.csv"),
+            read_summary(folder)["stages"][-1]["t_start"])
+
+
 def ensemble_at(folders, station):
     """`analysis.ensemble_peak` of p_n at one station over the realisations, each record from
     the latest start of the report's measured window among them to the end of the discharge;
     and the records and that start."""
     records, starts = [], []
     for f in folders:
-        h, dyn_f = read_csv(f / "wall_history.csv"), read_csv(f / "wall_dynamics.csv")
-        t_open = read_summary(f)["stages"][-1]["t_start"]
+        h, dyn_f, t_open = measured(f)
         starts.append(t_open + float(dyn_f["t_from"][dyn_f["station"] == station][0]))
         sel = h["station"] == station
         records.append((h["t"][sel], h["p_n"][sel]))
@@ -466,9 +473,10 @@ if args.realisations and comm.rank == 0:
             lines += [f"{case}: {len(folders)} completed realisation(s); an ensemble needs two", ""]
             continue
         for f in folders:
-            Report(f).wall_dynamics()
-            Report(f).discharge_pressures()
-        dyn_r = [read_csv(f / "wall_dynamics.csv") for f in folders]
+            r = Report(f)
+            r.wall_dynamics()
+            r.discharge_pressures()
+        dyn_r = [measured(f)[1] for f in folders]
         z = dyn_r[0]["z"]
         k_e = int(np.argmin(np.abs(z - 0.25 * sc.geometry.height)))
         m = load_scene(HERE / "scenes" / f"{CASES[case]}.toml").material

@@ -362,15 +362,27 @@ class ExplicitSolver:
         if rho_c < EMPTIED * rho0:
             why = ("It has emptied: the solid there is pulled apart (the wave speed of a cell grows as its density "
                    "falls). Over an outlet this is an arch - the solid above holds while the outlet drains the "
-                   "cells below it; a cone matched in compression (material.cone, docs/material.md) carries "
-                   "equal-biaxial compression with no cohesion once φ > 36.87°, and is much stronger in extension "
-                   "than a Mohr-Coulomb solid, so such arches hold. Fix: material.model = \"mohr_coulomb\" (φ at "
-                   "every Lode angle) or material.cone = \"extension\" for a discharge, a wider outlet, or (to "
-                   "run on regardless) a smaller min_time_step_fraction.")
+                   f"cells below it; {self._arch_advice()}")
         else:
             why = (f"It has not emptied: a cell is being crushed or distorted: {self._distortion_hint()} (Or lower "
                    "min_time_step_fraction to run on.)")
         return head + why
+
+    def _arch_advice(self) -> str:
+        """What holds an arch over an outlet in this run, and what to change: the yield surface
+        unless it is already Mohr-Coulomb's pyramid, then the element (docs/validation/ch6.md)."""
+        tail = "a wider outlet, or (to run on regardless) a smaller min_time_step_fraction."
+        if self.material.name != "mohr_coulomb":
+            return ("a cone matched in compression (material.cone, docs/material.md) carries equal-biaxial "
+                    "compression with no cohesion once φ > 36.87°, and is much stronger in extension than a "
+                    "Mohr-Coulomb solid, so such arches hold. Fix: material.model = \"mohr_coulomb\" (φ at every "
+                    f"Lode angle) or material.cone = \"extension\" for a discharge, {tail}")
+        if self.numerics.integration == "full":
+            return ("on Mohr-Coulomb's pyramid it is the element that holds it: a cell integrated at 2 × 2 "
+                    "points resists the shearing and dilating patterns the collapse over an outlet two cells "
+                    "across needs (docs/validation/ch6.md). Fix: at least four cells across the outlet's radius "
+                    f"(geometry.outlet_size_factor), numerics.integration = \"reduced\", {tail}")
+        return f"it holds even on Mohr-Coulomb's pyramid with one-point cells. Fix: {tail}"
 
     def limiting_cell(self, refresh: bool = True) -> dict[str, float]:
         """Collective: the active cell with the smallest stable Δt - where it is (centroid r, z),

@@ -379,9 +379,10 @@ class ExplicitSolver:
                     f"Lode angle) or material.cone = \"extension\" for a discharge, {tail}")
         if self.numerics.integration == "full":
             return ("on Mohr-Coulomb's pyramid it is the element that holds it: a cell integrated at 2 × 2 "
-                    "points resists the shearing and dilating patterns the collapse over an outlet two cells "
-                    "across needs (docs/validation/ch6.md). Fix: at least four cells across the outlet's radius "
-                    f"(geometry.outlet_size_factor), numerics.integration = \"reduced\", {tail}")
+                    "points resists the shearing and dilating patterns the collapse over an outlet needs (the "
+                    "ch. 6 silo's arched over 2 cells across its outlet radius, and over 4 and 8 on an unstructured "
+                    "mesh; docs/validation/ch6.md). Fix: numerics.integration = \"reduced\" (one point, the "
+                    f"thesis' CAX4R), {tail}")
         return f"it holds even on Mohr-Coulomb's pyramid with one-point cells. Fix: {tail}"
 
     def limiting_cell(self, refresh: bool = True) -> dict[str, float]:

@@ -433,3 +433,28 @@ def test_a_flat_bottomed_discharge_is_told_what_holds_its_flow_before_it_runs():
     assert advice("flat_bottom_ch6_discharge.toml") == []  # sets both
     assert advice("flat_bottom_ch6.toml", ['discharge.mode="controlled"', "discharge.velocity=0.05"]) == []
     assert advice("hopper_ch4.toml") == []
+
+
+def test_a_refined_outlet_on_a_structured_floor_is_told_it_makes_needles():
+    """On a structured mesh with a floor the outlet's column of cells runs the silo's height, so
+    outlet_size_factor 0.125 at h 0.02 m on the ch. 6 silo (outlet radius 0.02 m) makes 8 cells
+    2.5 mm wide under rows 20 mm tall: 8× needles (58 % of the cells beyond 3×, meshed), which
+    speed its discharge up by a third (docs/validation/ch6.md). `silo check` says so before any
+    step with the element size that would keep max_aspect_ratio - and nothing at the factor that
+    keeps 2× (0.5), on an unstructured mesh, without a discharge, or on a hopper."""
+    def advice(path, overrides=()):
+        return [w for w in load_scene(SCENES / path, list(overrides)).warnings if "needles" in w]
+
+    quick = ["geometry.element_size=0.02"]
+    eight = advice("flat_bottom_ch6_discharge.toml", quick + ["geometry.outlet_size_factor=0.125"])
+    assert len(eight) == 1 and "8 cells" in eight[0] and "8.0× taller" in eight[0]
+    assert "element_size ≤ 0.005 m" in eight[0] and 'geometry.mesh = "unstructured"' in eight[0]
+    four = advice("flat_bottom_ch6_discharge.toml", quick + ["geometry.outlet_size_factor=0.25"])
+    assert len(four) == 1 and "4.0× taller" in four[0]
+    assert advice("flat_bottom_ch6_discharge.toml", quick + ["geometry.outlet_size_factor=0.5"]) == []
+    assert advice("flat_bottom_ch6_discharge.toml", quick + ["geometry.outlet_size_factor=0.125",
+                                                             'geometry.mesh="unstructured"']) == []
+    assert advice("flat_bottom_ch6_discharge.toml", quick + ["geometry.outlet_size_factor=0.125",
+                                                             'discharge.mode="none"']) == []
+    assert advice("flat_bottom_ch6_discharge.toml") == []  # the scene as shipped: 2 cells of 10 mm, 1×
+    assert advice("hopper_ch4.toml", ["geometry.outlet_size_factor=0.125", 'geometry.mesh="structured"']) == []

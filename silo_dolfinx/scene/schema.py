@@ -148,7 +148,9 @@ GEOMETRY = Section(
           "unstructured: frontal-Delaunay quadrilaterals (any wall, e.g. with ledges), their smallest cells "
           "evened out by node relocation (they set the stable Δt)."),
         F("max_aspect_ratio", 2.0, "-", "Structured meshes: the vertical cell size is at most this "
-          "times the local radial cell size (keeps cells near a hopper outlet from becoming needles).",
+          "times the local radial cell size (keeps cells near a hopper outlet from becoming needles). Not "
+          "with a floor: there the outlet's column of cells runs the silo's height, and a refined outlet "
+          "makes it needles (silo check says so).",
           lo=1.0, hi=20.0),
         F("outlet_size_factor", 1.0, "-", "Element size at the outlet edge as a fraction of "
           "element_size (1 = no refinement).", lo=0.0, hi=1.0, lo_open=True),

@@ -166,12 +166,16 @@ class Discharge(Stage):
     def _outlet_fix(self, model, n: int) -> str:
         """The key that puts OUTLET_CELLS cells across the outlet: a structured mesh without a
         floor has as many in every row as across its top (element_size), else the outlet's own
-        refinement (outlet_size_factor)."""
+        refinement (outlet_size_factor) - on an unstructured mesh, which keeps it at the outlet."""
         g, ol = model.scene.geometry, model.outline
         if g.mesh == "structured" and not ol.has_floor:
             return (f"geometry.element_size = {ol.r_max / self.OUTLET_CELLS:.3g} m or less (a structured mesh without a "
                     "floor has as many cells across its outlet as across its top)")
-        return f"geometry.outlet_size_factor = {g.outlet_size_factor * max(n, 1) / self.OUTLET_CELLS:.2g}"
+        factor = f"geometry.outlet_size_factor = {g.outlet_size_factor * max(n, 1) / self.OUTLET_CELLS:.2g}"
+        if g.mesh == "structured":  # with a floor: its outlet column runs the height, refined it is needles
+            return (f"geometry.mesh = \"unstructured\" and {factor} (a structured mesh with a floor refines its "
+                    "outlet's column over the silo's whole height: needles, which speed a discharge up)")
+        return factor
 
     @staticmethod
     def _why(model) -> str:

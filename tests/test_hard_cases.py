@@ -203,7 +203,7 @@ def test_a_flow_down_a_pipe_one_outlet_wide_names_the_outlets_resolution(shared_
     out (measured: 0.6 s, 8.6 kg of 4,343). The stage record names the outlet's resolution and
     the keys that fix it; with that fix (an unstructured mesh, outlet_size_factor 0.25: 8 cells;
     refined on the structured mesh the outlet's column would be needles up the silo) the same
-    discharge runs its whole second. ~3 + 10 s on 2 ranks."""
+    discharge runs its whole second. ~30 s serial (both runs)."""
     ends = {}
     for factor in (1.0, 0.25):
         out = shared_tmp / f"pipe_{factor:g}"

@@ -80,6 +80,13 @@ class MeshOptions:
                     if z <= outline.fill_height]
         return pts
 
+    def outlet_column_cells(self, outline: Outline) -> int:
+        """Cells across the outlet in a structured mesh with a floor: the outlet's column, the same
+        in every row up the silo (enough for its own refinement and for the widest row)."""
+        xi_o = outline.outlet_radius / outline.floor_radius
+        return max(1, math.ceil(outline.outlet_radius / (self.element_size * self.outlet_size_factor) - 1e-9),
+                   math.ceil(xi_o * outline.r_max / self.element_size - 1e-9))
+
     def radial_divisions(self, outline: Outline) -> int:
         """Cells across the silo in a structured mesh (without a floor)."""
         return max(2, math.ceil(outline.r_max / self.element_size - 1e-9))
@@ -266,8 +273,7 @@ def _structured(outline: Outline, opts: MeshOptions) -> None:
     rmax = outline.r_max
     if has_floor:
         h_edge = h * opts.outlet_size_factor
-        # Enough cells for the widest row too (a wall that widens above the floor).
-        n_in = max(1, math.ceil(outline.outlet_radius / h_edge - 1e-9), math.ceil(xi_o * rmax / h - 1e-9))
+        n_in = opts.outlet_column_cells(outline)
         n_out, q_out = _progression(rf - outline.outlet_radius, h_edge, h)
         n_top = math.ceil((1.0 - xi_o) * rmax / h - 1e-9)
         if n_top > n_out:

@@ -337,8 +337,10 @@ def _outlet_column_advice(s: dict, outline) -> list[str]:
     g, d = s["geometry"], s["discharge"]
     if g["mesh"] != "structured" or g["mesh_file"] or not outline.has_floor or d["mode"] == "none":
         return []
+    from silo_dolfinx.geometry.mesher import MeshOptions
+
     h, r0 = g["element_size"], outline.outlet_radius
-    across = max(1, math.ceil(r0 / (h * g["outlet_size_factor"]) - 1e-9), math.ceil(r0 / h - 1e-9))
+    across = MeshOptions.from_geometry(g).outlet_column_cells(outline)
     aspect = h * across / r0  # the outlet column's cells where the rows are element_size tall
     if aspect <= g["max_aspect_ratio"] * (1.0 + 1e-9):
         return []

@@ -838,6 +838,36 @@ def time_averaged_velocity(snapshots) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(last["node_xy"], float), np.mean(np.asarray(vs, float), axis=0)
 
 
+def windowed_transitions(snapshots, window: float, radius_at, t_start: float, tolerance: float = 0.0,
+                         fraction: float = 1e-3):
+    """The effective transition of consecutive windows of a discharge: v_z averaged over the
+    snapshots of each window (:func:`time_averaged_velocity`), its flow-channel boundary
+    (:func:`flow_channel_from_nodes`, criterion ``fraction``) and the height where it meets
+    the wall (:func:`effective_transition`, within ``tolerance``). The windows (e − window, e]
+    end at the last snapshot and step back by ``window`` while they lie after ``t_start``;
+    one with fewer than two snapshots (a single one carries the stress waves) is left out.
+
+    ``snapshots``: (t, file) in time order. Returns (window ends, transitions; nan where the
+    boundary does not meet the wall), oldest first. A criterion read from one window is one
+    sample of a quantity that wanders as the flow channel does: the spread over the windows
+    of one run is its resolution."""
+    snaps = list(snapshots)
+    if not snaps:
+        return np.zeros(0), np.zeros(0)
+    t = np.array([s[0] for s in snaps], float)
+    ends, heights = [], []
+    e = t[-1]
+    while e - window >= t_start - 1e-9:
+        inside = [f for tt, f in snaps if e - window < tt <= e + 1e-9]
+        if len(inside) >= 2:
+            xy, v = time_averaged_velocity(inside)
+            z_rows, r_fcb, rw = flow_channel_from_nodes(xy, v[:, 1], radius_at, fraction)
+            ends.append(e)
+            heights.append(effective_transition(z_rows, r_fcb, rw, tolerance))
+        e -= window
+    return np.array(ends[::-1]), np.array(heights[::-1])
+
+
 # ---------------------------------------------------------------------------- stress measures
 def invariants(sig):
     """(p, q) of (n, 4) stresses: p = −tr σ/3 (compression +), q = √(3 J2)."""

@@ -1326,6 +1326,7 @@ class Report:
             plt.close(fig)
             self.missing.append("flow-channel boundary (no flow in the discharge snapshots)")
             return
+        self._transition_spread(snaps, wall, h)
         self._table(FLOW_CHANNEL, rows)
         ax.set_xlabel("r (m)")
         ax.set_ylabel("z (m)")
@@ -1333,6 +1334,21 @@ class Report:
         ax.legend(fontsize=7)
         self._save(fig, "flow_channel.png", "Flow-channel boundary (v_z = 0.001 × centreline, ch. 6.4.3; v_z "
                    f"averaged over {self.FCB_WINDOW:g} s of snapshots) at successive discharged volumes (Fig. 6-11).")
+
+    def _transition_spread(self, snaps, wall, h: float) -> None:
+        """The effective transition of each FCB_WINDOW-s window of the discharge, as a key
+        number: median and range. One window's is one sample of a boundary that wanders with
+        the flow (docs/validation/ch6.md); the range over one run is what a single value can
+        be trusted to."""
+        t_open = self._stage_times()["discharge"][0]
+        _, et = analysis.windowed_transitions(snaps, self.FCB_WINDOW, wall.radius_at, t_open, tolerance=h)
+        met = et[np.isfinite(et)]
+        if et.size < 2:
+            return
+        spread = (f"median {np.median(met):.3g} m, {met.min():.3g}–{met.max():.3g} m" if met.size else
+                  "none meets the wall")
+        self.numbers.append((f"effective transition over {et.size} windows of {self.FCB_WINDOW:g} s",
+                             f"{spread} ({met.size} of {et.size} windows meet the wall)"))
 
     def _snapshot_times(self) -> list[float]:
         """The default times of the stress-field figures: the end of filling, the opening, 2 s

@@ -431,6 +431,28 @@ def test_time_averaged_velocity_keeps_to_the_last_mesh(tmp_path):
     assert pos.shape == (3, 2) and np.allclose(pos, 3.0) and np.allclose(v, [0.0, -2.0])
 
 
+def test_windowed_transitions_reads_each_window_on_its_own(tmp_path):
+    """Two 5-s windows of snapshots whose flow channels (|v_z| falling linearly to zero at
+    r = b(z), b growing to the wall's 0.35 m at z_e, the whole section flowing above) meet the
+    wall at z_e = 0.8 m and then 1.2 m: each window gives its own z_e, to within one row of
+    the boundary's sampling (1.92/59 = 0.033 m) plus one row of the nodes (0.025 m) that
+    the interpolation onto those rows spans; a mix of the windows would land between the two.
+    A third window holding a single snapshot (t = 0) is left out."""
+    r, z = np.meshgrid(np.linspace(0.0, 0.35, 36), np.linspace(0.0, 2.0, 81))
+    xy = np.column_stack([r.ravel(), z.ravel()])
+    files = []
+    for t in range(11):
+        z_e = 0.8 if t <= 5 else 1.2
+        b = np.where(z < z_e, 0.05 + 0.30 * z / z_e, 10.0)
+        vz = -np.clip(1.0 - r / b, 0.0, None)
+        f = tmp_path / f"snapshot_{t}.npz"
+        np.savez(f, node_xy=xy, node_velocity=np.column_stack([np.zeros(vz.size), vz.ravel()]))
+        files.append((float(t), f))
+    ends, heights = analysis.windowed_transitions(files, 5.0, lambda zz: np.full_like(zz, 0.35), t_start=-5.0)
+    assert np.allclose(ends, [5.0, 10.0])
+    assert np.all(np.abs(heights - [0.8, 1.2]) <= 0.033 + 0.025), heights
+
+
 def test_mode_shape_recovers_a_drifting_mode_beside_a_larger_slow_one():
     """Four signals share an oscillation drifting 33-37 Hz with the amplitudes 1, 0.5, −0.4
     (against the reference) and 0.8 lagging 30°; each also carries an 8-Hz swing three times

@@ -476,6 +476,32 @@ def test_a_short_discharge_shows_its_last_flow_channel_too(flat_bottom):
     assert f"effective transition (FCB meets the wall) at V_dis {last:.2g} %" in dict(rep.numbers)
 
 
+def test_flow_channel_spread_over_windows(flat_bottom):
+    """One more snapshot of the V_dis 3 % channel at t = 3 s makes two whole 5-s windows of
+    two snapshots each: (2.5, 7.5] holds the 3 % channel twice, (7.5, 12.5] the 6 % and 10 %
+    ones, whose mean meets the wall lower (the wider channels meet it at 1.01 and 0.93 m). The key
+    number gives both windows' transitions, the larger the 3 % channel's z_et = 1.07 m to the
+    tolerance of the test above (a row plus a node spacing along the boundary)."""
+    import shutil
+
+    from silo_dolfinx.report import Report
+
+    fields = flat_bottom / "fields"
+    shutil.copy(fields / "snapshot_0001.npz", fields / "snapshot_0000b.npz")
+    with np.load(fields / "snapshot_0000b.npz") as f:
+        arrays = dict(f)
+    np.savez(fields / "snapshot_0000b.npz", **{**arrays, "t": 3.0})
+    rep = Report(flat_bottom)
+    rep.flow_channel()
+    spread = dict(rep.numbers)["effective transition over 2 windows of 5 s"]
+    assert spread.endswith("(2 of 2 windows meet the wall)"), spread
+    low, high = (float(x) for x in spread.split(", ")[1].split(" m")[0].split("–"))
+    root = math.sqrt(math.log(1000.0))
+    tol = 0.96 * 4.0 / 59 + 0.01 / (0.1 * root)
+    assert abs(high - (0.35 / root - 0.026) / 0.1) <= tol, spread
+    assert (0.35 / root - 0.04) / 0.1 - tol <= low < high, spread
+
+
 def test_report_fits_janssen_to_a_filled_vertical_wall(tmp_path):
     """A flat-bottomed silo's end-of-fill wall carrying Janssen's pressure for (K 0.55, μ 0.45):
     the report's fit of the vertical wall gives K and μ back (to round-off of the least

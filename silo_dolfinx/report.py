@@ -1342,9 +1342,9 @@ class Report:
         be trusted to."""
         t_open = self._stage_times()["discharge"][0]
         _, et = analysis.windowed_transitions(snaps, self.FCB_WINDOW, wall.radius_at, t_open, tolerance=h)
-        met = et[np.isfinite(et)]
         if et.size < 2:
             return
+        met = et[np.isfinite(et)]
         spread = (f"median {np.median(met):.3g} m, {met.min():.3g}–{met.max():.3g} m" if met.size else
                   "none meets the wall")
         self.numbers.append((f"effective transition over {et.size} windows of {self.FCB_WINDOW:g} s",

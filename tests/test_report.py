@@ -502,6 +502,28 @@ def test_flow_channel_spread_over_windows(flat_bottom):
     assert (0.35 / root - 0.04) / 0.1 - tol <= low < high, spread
 
 
+@pytest.mark.parametrize("nominal, flagged", [(24.0, True), (30.0, False)])
+def test_outflow_denser_than_placed_is_flagged(flat_bottom, nominal, flagged):
+    """A mass leaving of 32 kg/s against ρ0·A·v = 24 kg/s (33 % above: the outlet's solid would
+    be a third denser than placed, as on the coarse unstructured ch. 6 meshes, +28 to +38 %) gets
+    a key number that names the mesh and says by how much; 30 kg/s (7 % above, within the 10 %
+    that the structured and thesis-density runs stay inside: −7 to +2 %) gets none."""
+    from silo_dolfinx.report import Report
+
+    o = read_csv(flat_bottom / "outlet.csv")
+    n = o["t"].size
+    write_csv(flat_bottom / "outlet.csv", ["t", "discharged_mass", "mass_in_silo", "mass_flow_rate",
+                                           "mean_outlet_velocity", "nominal_mass_flow_rate"],
+              np.column_stack([o["t"], o["discharged_mass"], o["mass_in_silo"], np.full(n, 32.0), np.full(n, 1.0),
+                               np.full(n, nominal)]))
+    rep = Report(flat_bottom)
+    rep.outlet()
+    note = dict(rep.numbers).get("the solid leaves denser than it was placed")
+    assert (note is not None) == flagged, note
+    if flagged:
+        assert "33 % above ρ0·A·v" in note and "geometry.element_size" in note and "structured" in note
+
+
 def test_report_fits_janssen_to_a_filled_vertical_wall(tmp_path):
     """A flat-bottomed silo's end-of-fill wall carrying Janssen's pressure for (K 0.55, μ 0.45):
     the report's fit of the vertical wall gives K and μ back (to round-off of the least

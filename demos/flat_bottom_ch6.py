@@ -378,10 +378,9 @@ if comm.rank == 0:
     # the same criterion over every 10-s window of the discharge: one window's height is one
     # sample of a boundary that wanders with the flow, the spread over the run its resolution
     _, by_window = analysis.windowed_transitions(snaps, AVERAGE, wall.radius_at, t_open, tolerance=h_wall)
-    met = by_window[np.isfinite(by_window)]
-    median = float(np.median(met)) if met.size else float("nan")
+    median, lo, hi, met = analysis.finite_spread(by_window)
     windows = (f"over the {by_window.size} windows of {AVERAGE:g} s: median {median:.2f} m, "
-               f"{met.min():.2f}–{met.max():.2f} m ({', '.join(f'{z:.2f}' for z in by_window)}); " if met.size else
+               f"{lo:.2f}–{hi:.2f} m ({', '.join(f'{z:.2f}' for z in by_window)}); " if met else
                f"none of {by_window.size} windows of {AVERAGE:g} s meets the wall; ")
     o = read_csv(OUT / "outlet.csv")
     mq = read_csv(OUT / "mesh_quality.csv")

@@ -868,6 +868,16 @@ def windowed_transitions(snapshots, window: float, radius_at, t_start: float, to
     return np.array(ends[::-1]), np.array(heights[::-1])
 
 
+def finite_spread(values) -> tuple[float, float, float, int]:
+    """(median, min, max, count) of the finite values (nan where none is): the spread of a
+    quantity read once per window, some windows giving none (:func:`windowed_transitions`)."""
+    x = np.asarray(values, float)
+    x = x[np.isfinite(x)]
+    if not x.size:
+        return float("nan"), float("nan"), float("nan"), 0
+    return float(np.median(x)), float(x.min()), float(x.max()), int(x.size)
+
+
 # ---------------------------------------------------------------------------- stress measures
 def invariants(sig):
     """(p, q) of (n, 4) stresses: p = −tr σ/3 (compression +), q = √(3 J2)."""

@@ -1360,11 +1360,10 @@ class Report:
         _, et = analysis.windowed_transitions(snaps, self.FCB_WINDOW, wall.radius_at, t_open, tolerance=h)
         if et.size < 2:
             return
-        met = et[np.isfinite(et)]
-        spread = (f"median {np.median(met):.3g} m, {met.min():.3g}–{met.max():.3g} m" if met.size else
-                  "none meets the wall")
+        median, lo, hi, met = analysis.finite_spread(et)
+        spread = f"median {median:.3g} m, {lo:.3g}–{hi:.3g} m" if met else "none meets the wall"
         self.numbers.append((f"effective transition over {et.size} windows of {self.FCB_WINDOW:g} s",
-                             f"{spread} ({met.size} of {et.size} windows meet the wall)"))
+                             f"{spread} ({met} of {et.size} windows meet the wall)"))
 
     def _snapshot_times(self) -> list[float]:
         """The default times of the stress-field figures: the end of filling, the opening, 2 s

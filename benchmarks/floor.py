@@ -6,8 +6,9 @@ the cells doing everything a cell does - velocity gradient at the mid-step confi
 B-bar strain increment and spin, Jaumann rotation, the Drucker-Prager return (dilation, the
 critical state, cohesion: the same law and constants), the density, the bulk viscosity, the
 internal force σ̃ : B 2π r dV at the end configuration scattered to the nodes (with the viscous
-hourglass force at one point) and the cell's stable Δt. Same mesh, same quadrature, same
-constants as the solver's step; the wall contact is reduced to a frictionless constraint on the
+hourglass force at one point) and the cell's stable Δt. The one-point cell is the solver's
+uniform-strain cell: the gradient averaged over the 2 × 2 Gauss points, σ̃ constant on the
+cell. Same mesh, same quadrature, same constants as the solver's step; the wall contact is reduced to a frictionless constraint on the
 same nodes (the solver's contact costs a few per cent of its step: the 'update' phase).
 
 Used by ``benchmarks/step_cost.py`` (``ours / floor``); checked there against the solver: the
@@ -63,7 +64,8 @@ def step(arrays, law, dt):
         vn = v[i, 0] * wall_n[i, 0] + v[i, 1] * wall_n[i, 1]
         v[i, 0] -= vn * wall_n[i, 0]
         v[i, 1] -= vn * wall_n[i, 1]
-    nq = points.shape[0]
+    nq = points.shape[0]  # integration points; stress points: nq, or one (the uniform-strain cell)
+    ns = sig.shape[0] // cells.shape[0]
     dt_min = 1e300
     ri = np.empty(4)
     zi = np.empty(4)
@@ -96,10 +98,17 @@ def step(arrays, law, dt):
             vol += g[q, 5]
             trs += (g[q, 0] + g[q, 3] + g[q, 4]) * g[q, 5]
         tr_avg = trs / vol
+        if ns == 1:  # one point: the gradient's mean over the cell's exact volume
+            for k in range(5):
+                s_k = 0.0
+                for q in range(nq):
+                    s_k += g[q, k] * g[q, 5]
+                g[0, k] = s_k / vol
+            g[0, 5] = vol
         mbar = 0.0
         rho_c = 0.0
-        for q in range(nq):  # strain, rotation, return map, density
-            i = c * nq + q
+        for q in range(ns):  # strain, rotation, return map, density
+            i = c * ns + q
             shift = (tr_avg - (g[q, 0] + g[q, 3] + g[q, 4])) / 3.0
             e0, e1, e2 = (g[q, 0] + shift) * dt, (g[q, 3] + shift) * dt, (g[q, 4] + shift) * dt
             e3 = (g[q, 1] + g[q, 2]) * dt
@@ -153,8 +162,8 @@ def step(arrays, law, dt):
         s_bv = b1 * rho_c * cd * L * tr_avg
         if tr_avg < 0.0:
             s_bv -= rho_c * (b2 * L * tr_avg) ** 2
-        for q in range(nq):  # internal force at the end configuration
-            i = c * nq + q
+        for q in range(nq):  # internal force at the end configuration (σ̃ constant on a one-point cell)
+            i = c * ns + (q if ns > 1 else 0)
             N0, N1, N2, N3, a0, a1, a2, a3, c0, c1, c2, c3 = _shape(points, q)
             r_x, r_e, z_x, z_e, det = _jacobian((a0, a1, a2, a3), (c0, c1, c2, c3), ri, zi)
             inv = 1.0 / det
@@ -172,7 +181,7 @@ def step(arrays, law, dt):
                 nd = cells[c, a]
                 f[nd, 0] += (srr * br + stt * Ns[a] / r + srz * bz) * dv
                 f[nd, 1] += (szz * bz + srz * br) * dv
-        if nq == 1 and kv > 0.0:  # viscous hourglass control (kernels.hourglass_update, κ_s = 0)
+        if ns == 1 and kv > 0.0:  # viscous hourglass control (kernels.hourglass_update, κ_s = 0)
             r_x = 0.5 * (ri[1] - ri[0] + ri[3] - ri[2])
             r_e = 0.5 * (ri[2] - ri[0] + ri[3] - ri[1])
             z_x = 0.5 * (zi[1] - zi[0] + zi[3] - zi[2])
@@ -215,6 +224,16 @@ def from_solver(solver) -> tuple:
     law = tuple(map(float, (m.K, m.G, m.tan_beta, m.tan_psi, m.cohesion, m.eqps_critical,
                             *s.numerics.bulk_viscosity, s.numerics.hourglass[1])))
     arrays = (x, s.v.copy(), s.minv.copy(), f_ext, s.f_int.copy(), axis, wall_n, cells,
-              np.ascontiguousarray(s.forms.points), np.ascontiguousarray(s.forms.weights), s.sig.copy(),
+              *_integration_points(s), s.sig.copy(),
               s.state["eqps"].copy(), s.rho.copy())
     return arrays, law
+
+
+def _integration_points(solver) -> tuple[np.ndarray, np.ndarray]:
+    """The points (and weights) the cell integrals run over: the solver's 2 × 2, or for its
+    one-point (uniform-strain) cell the 2 × 2 Gauss points its means are integrated at."""
+    from silo_dolfinx.kernels import GAUSS_2X2
+
+    if solver.nq == 1:
+        return np.ascontiguousarray(GAUSS_2X2), np.full(4, 0.25)
+    return np.ascontiguousarray(solver.forms.points), np.ascontiguousarray(solver.forms.weights)

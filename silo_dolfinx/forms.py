@@ -8,10 +8,15 @@ so forces are in N, masses in kg and energies in J for the full 360°.
 Everything is compiled once, before the time loop:
 
 * the **quadrature** of the internal force: 2 × 2 Gauss points (``integration = "full"``) or
-  one point at the centre (``"reduced"``, the thesis' CAX4R; the hourglass modes it cannot see
+  one point per cell (``"reduced"``, the thesis' CAX4R; the hourglass modes it cannot see
   are resisted in :mod:`silo_dolfinx.kernels`). The velocity gradient at these points is a
   compiled kernel fed by the geometry and the dofmap (:func:`silo_dolfinx.kernels.gradients_q1`,
-  checked against the UFL expression of the same quantity in the tests);
+  checked against the UFL expression of the same quantity in the tests). The one-point cell
+  is Flanagan & Belytschko's **uniform strain** cell: its strain rate is the mean over the
+  cell's exact volume of revolution (:func:`silo_dolfinx.kernels.mean_gradients_q1`), σ̃ and ρ
+  are cell constants (DG0 coefficients, packed as one point), and the force σ̃ : ∫ B_a 2πr dx
+  and the mass ρ ∫ N_a 2πr dx are integrated exactly (2 × 2 points) - its work conjugate, so
+  the pressure resists exactly the volume change the density (and the ALE remap) sees;
 * the **internal force** ``f_int(w) = ∫ σ̃ : ε_axi(w) 2π r dx`` whose only coefficient is
   σ̃ at the quadrature points, supplied pre-packed (the stress kernels write it directly in
   DOLFINx's packed-coefficient layout, ``[cell, q·4 + component]``);
@@ -86,10 +91,14 @@ class AxisymmetricForms:
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.weights = np.ascontiguousarray(weights, dtype=np.float64)
         self.nq = self.points.shape[0]
-        qe = basix.ufl.quadrature_element(cell, value_shape=(4,), degree=degree)
-        self.Q4 = fem.functionspace(mesh, qe)
-        self._density = fem.Function(fem.functionspace(mesh, basix.ufl.quadrature_element(
-            cell, value_shape=(), degree=degree)), name="density")  # for the lumped mass
+        if self.nq == 1:  # the uniform-strain cell: σ̃ and ρ constant on it, its integrals exact
+            Q4, Q1 = (fem.functionspace(mesh, ("DG", 0, (4,))), fem.functionspace(mesh, ("DG", 0)))
+            degree = QUADRATURE_DEGREE
+        else:
+            Q4, Q1 = (fem.functionspace(mesh, basix.ufl.quadrature_element(cell, value_shape=shape, degree=degree))
+                      for shape in ((4,), ()))
+        self.Q4 = Q4
+        self._density = fem.Function(Q1, name="density")  # for the lumped mass
         self.velocity = fem.Function(self.V, name="velocity")
         self._stress = fem.Function(self.Q4, name="force_stress")  # placeholder: values are pre-packed
         self._w = ufl.TestFunction(self.V)

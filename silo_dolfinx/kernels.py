@@ -34,10 +34,16 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from silo_dolfinx._jit_cache import numba
 
 
 TWO_PI = 2.0 * math.pi
+
+#: The 2 × 2 Gauss points on the reference square [0, 1]² (weight ¼ each): exact for every
+#: integral of a Q1 cell's kinematics and volume of revolution (degree ≤ 3 in each direction).
+GAUSS_2X2 = 0.5 + (0.5 / math.sqrt(3.0)) * np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]])
 
 # Hoop-stiffness correction of the characteristic length near the axis: 1/L² += HOOP / r_c².
 # Calibrated by bisection on the scale at which undamped runs blow up
@@ -273,6 +279,48 @@ def cell_average(values, dV, nq, out):
 
 
 # ---------------------------------------------------------------------------- the compiled strain path
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _point_kinematics(nodes, u, w, xi, eta, g):
+    """g (6,) ← ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J| at reference point (ξ, η)
+    of a Q1 cell: nodes (4, 2) its (r, z) in tensor order, u, w (4,) the nodal v_r, v_z."""
+    r0, r1, r2, r3 = nodes[0, 0], nodes[1, 0], nodes[2, 0], nodes[3, 0]
+    z0, z1, z2, z3 = nodes[0, 1], nodes[1, 1], nodes[2, 1], nodes[3, 1]
+    # ∂N/∂ξ, ∂N/∂η of the four bilinear shape functions
+    a0, a1, a2, a3 = -(1.0 - eta), 1.0 - eta, -eta, eta
+    b0, b1, b2, b3 = -(1.0 - xi), -xi, 1.0 - xi, xi
+    r_xi = a0 * r0 + a1 * r1 + a2 * r2 + a3 * r3
+    r_eta = b0 * r0 + b1 * r1 + b2 * r2 + b3 * r3
+    z_xi = a0 * z0 + a1 * z1 + a2 * z2 + a3 * z3
+    z_eta = b0 * z0 + b1 * z1 + b2 * z2 + b3 * z3
+    det = r_xi * z_eta - r_eta * z_xi
+    inv = 1.0 / det
+    # ∂f/∂r = (f_ξ z_η − f_η z_ξ)/det, ∂f/∂z = (f_η r_ξ − f_ξ r_η)/det
+    u_xi = a0 * u[0] + a1 * u[1] + a2 * u[2] + a3 * u[3]
+    u_eta = b0 * u[0] + b1 * u[1] + b2 * u[2] + b3 * u[3]
+    w_xi = a0 * w[0] + a1 * w[1] + a2 * w[2] + a3 * w[3]
+    w_eta = b0 * w[0] + b1 * w[1] + b2 * w[2] + b3 * w[3]
+    N0, N1 = (1.0 - xi) * (1.0 - eta), xi * (1.0 - eta)
+    N2, N3 = (1.0 - xi) * eta, xi * eta
+    r = N0 * r0 + N1 * r1 + N2 * r2 + N3 * r3
+    g[0] = (u_xi * z_eta - u_eta * z_xi) * inv
+    g[1] = (u_eta * r_xi - u_xi * r_eta) * inv
+    g[2] = (w_xi * z_eta - w_eta * z_xi) * inv
+    g[3] = (w_eta * r_xi - w_xi * r_eta) * inv
+    g[4] = (N0 * u[0] + N1 * u[1] + N2 * u[2] + N3 * u[3]) / r
+    g[5] = r * abs(det)
+
+
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _gather_cell(x, v, node_dof, cn, c, out):
+    """out = (nodes (4, 2), u (4,), w (4,)) ← cell c's node positions and velocities."""
+    nodes, u, w = out
+    for a in range(4):
+        n = cn[c, a]
+        d = node_dof[n]
+        nodes[a, 0], nodes[a, 1] = x[n, 0], x[n, 1]
+        u[a], w[a] = v[d, 0], v[d, 1]
+
+
 @numba.njit(cache=True, fastmath=FAST)
 def gradients_q1(x, v, node_dof, cn, points, kin):
     """Velocity gradient at the quadrature points of Q1 cells, straight from the node
@@ -283,46 +331,48 @@ def gradients_q1(x, v, node_dof, cn, points, kin):
     velocity dof; cn (nc, 4) the cells' nodes in tensor order ((ξ, η) = (0,0), (1,0), (0,1),
     (1,1) on the reference square [0, 1]²); points (nq, 2) reference points.
     kin (nc, nq, 6) out: ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J|.
-
-    With one point its volume is 2π r_c |det J_c|, not the cell's exact volume of revolution,
-    and that is consistent: J at the centre moves with ∇v at the centre, so this volume changes
-    at exactly the rate tr ε̇ the density update uses (ρ V is conserved in the Lagrangian step);
-    the remap converts to and from the exact volumes it conserves mass in (:mod:`silo_dolfinx.ale`).
     """
     nc, nq = cn.shape[0], points.shape[0]
+    nodes, u, w = np.empty((4, 2)), np.empty(4), np.empty(4)
     for c in range(nc):
-        n0, n1, n2, n3 = cn[c, 0], cn[c, 1], cn[c, 2], cn[c, 3]
-        d0, d1, d2, d3 = node_dof[n0], node_dof[n1], node_dof[n2], node_dof[n3]
-        r0, r1, r2, r3 = x[n0, 0], x[n1, 0], x[n2, 0], x[n3, 0]
-        z0, z1, z2, z3 = x[n0, 1], x[n1, 1], x[n2, 1], x[n3, 1]
-        u0, u1, u2, u3 = v[d0, 0], v[d1, 0], v[d2, 0], v[d3, 0]
-        w0, w1, w2, w3 = v[d0, 1], v[d1, 1], v[d2, 1], v[d3, 1]
+        _gather_cell(x, v, node_dof, cn, c, (nodes, u, w))
         for q in range(nq):
-            xi, eta = points[q, 0], points[q, 1]
-            # ∂N/∂ξ, ∂N/∂η of the four bilinear shape functions
-            a0, a1, a2, a3 = -(1.0 - eta), 1.0 - eta, -eta, eta
-            b0, b1, b2, b3 = -(1.0 - xi), -xi, 1.0 - xi, xi
-            r_xi = a0 * r0 + a1 * r1 + a2 * r2 + a3 * r3
-            r_eta = b0 * r0 + b1 * r1 + b2 * r2 + b3 * r3
-            z_xi = a0 * z0 + a1 * z1 + a2 * z2 + a3 * z3
-            z_eta = b0 * z0 + b1 * z1 + b2 * z2 + b3 * z3
-            det = r_xi * z_eta - r_eta * z_xi
-            inv = 1.0 / det
-            # ∂f/∂r = (f_ξ z_η − f_η z_ξ)/det, ∂f/∂z = (f_η r_ξ − f_ξ r_η)/det
-            u_xi = a0 * u0 + a1 * u1 + a2 * u2 + a3 * u3
-            u_eta = b0 * u0 + b1 * u1 + b2 * u2 + b3 * u3
-            w_xi = a0 * w0 + a1 * w1 + a2 * w2 + a3 * w3
-            w_eta = b0 * w0 + b1 * w1 + b2 * w2 + b3 * w3
-            N0, N1 = (1.0 - xi) * (1.0 - eta), xi * (1.0 - eta)
-            N2, N3 = (1.0 - xi) * eta, xi * eta
-            r = N0 * r0 + N1 * r1 + N2 * r2 + N3 * r3
-            g = kin[c, q]
-            g[0] = (u_xi * z_eta - u_eta * z_xi) * inv
-            g[1] = (u_eta * r_xi - u_xi * r_eta) * inv
-            g[2] = (w_xi * z_eta - w_eta * z_xi) * inv
-            g[3] = (w_eta * r_xi - w_xi * r_eta) * inv
-            g[4] = (N0 * u0 + N1 * u1 + N2 * u2 + N3 * u3) / r
-            g[5] = r * abs(det)
+            _point_kinematics(nodes, u, w, points[q, 0], points[q, 1], kin[c, q])
+
+
+@numba.njit(cache=True, fastmath=FAST)
+def mean_gradients_q1(x, v, node_dof, cn, gauss, kin):
+    """The one-point cell of ``numerics.integration = "reduced"``: the **uniform strain** of
+    Flanagan & Belytschko (1981) (Abaqus' CAX4R) - the velocity gradient and v_r/r averaged over
+    the cell's exact volume of revolution, (1/V)∫ (·) 2πr dA, integrated exactly at the 2 × 2
+    Gauss points ``gauss`` (:data:`GAUSS_2X2`) - and that volume itself: kin (nc, 1, 6) out as
+    :func:`gradients_q1`, with kin[c, 0, 5] = ∫ r dA (so the point's volume 2π·kin[..., 5]·w,
+    w = 1, is the cell's exact volume).
+
+    Why not the gradient at the centre: its trace is the rate of the one-point volume 2π r_c A,
+    not of the cell's volume, which the ALE remap moves mass by. On a cell near the axis that is
+    not a parallelogram the two differ, and in the converging flow over an outlet the difference
+    compacted the solid with no pressure to resist it - the ch. 6 silo's outlet cells rose to
+    1,810-2,340 kg/m³ from 1,455 on an unstructured mesh, and the mass leaving to 1.3 × ρ0 A v
+    (docs/validation/ch6.md). The mean trace is exactly d ln V/dt, so ρ V is conserved in the
+    Lagrangian step in the volume the remap conserves it in, and the pressure resists exactly
+    the volume change the mass sees; the internal force σ : ∫ B_a 2πr dA is its work conjugate
+    (:mod:`silo_dolfinx.forms`)."""
+    nc = cn.shape[0]
+    nodes, u, w = np.empty((4, 2)), np.empty(4), np.empty(4)
+    g = np.empty(6)
+    for c in range(nc):
+        _gather_cell(x, v, node_dof, cn, c, (nodes, u, w))
+        out = kin[c, 0]
+        out[:] = 0.0
+        for q in range(gauss.shape[0]):
+            _point_kinematics(nodes, u, w, gauss[q, 0], gauss[q, 1], g)
+            wr = 0.25 * g[5]  # Gauss weight ¼ on [0, 1]² times r|det J|
+            for k in range(5):
+                out[k] += g[k] * wr
+            out[5] += wr
+        for k in range(5):
+            out[k] /= out[5]
 
 
 # ---------------------------------------------------------------------------- hourglass control

@@ -1187,13 +1187,17 @@ class Report:
     def _denser_outflow(mean: float, nominal: float) -> str:
         """Why a mass leaving well above ρ0·A·v is not to be trusted, and what to change: a
         flowing solid at an outlet is looser than placed, so the excess is compaction without
-        the stress that would go with it (measured on coarse unstructured meshes around a small
-        outlet: +25 to +41 % density at 0-500 Pa; docs/validation/ch6.md)."""
-        return (f"**check the mesh**: the mass leaving ({mean:.4g} kg/s) is {100 * (mean / nominal - 1):.0f} % above "
-                "ρ0·A·v - the outlet's cells carry more density than any stress in them accounts for (a flowing "
-                "solid leaves looser than placed). Seen on unstructured meshes coarse around a small outlet; a finer "
-                "geometry.element_size there, or geometry.mesh = \"structured\", removes it (docs/validation/ch6.md). "
-                "Read the flow from ρ0·A·v meanwhile.")
+        the stress that would go with it. Its known cause - one-point cells whose volumetric
+        strain was the centre's, not the cell's volume change (+25 to +41 % density at 0-500 Pa
+        on coarse unstructured meshes around a small outlet) - is fixed since 2026-12-07
+        (kernels.mean_gradients_q1; docs/validation/ch6.md); the check stays for older results
+        and causes not yet seen."""
+        return (f"**check the outlet's cells**: the mass leaving ({mean:.4g} kg/s) is {100 * (mean / nominal - 1):.0f} % "
+                "above ρ0·A·v - the outlet's cells carry more density than any stress in them accounts for (a flowing "
+                "solid leaves looser than placed). One-point cells did this before 2026-12-07 (their strain missed part "
+                "of the cell's volume change; fixed: re-run such results); otherwise look at the density field by the "
+                "outlet and refine geometry.element_size there (docs/validation/ch6.md). Read the flow from ρ0·A·v "
+                "meanwhile.")
 
     def mesh_quality(self) -> None:
         """Critical-element aspect ratio against the fall of the top surface (Fig. 3-18)."""

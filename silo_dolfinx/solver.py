@@ -125,6 +125,8 @@ class ExplicitSolver:
         imap = self.V.dofmap.index_map
         self.n_owned, self.n_nodes = imap.size_local, imap.size_local + imap.num_ghosts
         self.nq = self.forms.nq
+        self._strain_path = ((kernels.mean_gradients_q1, kernels.GAUSS_2X2) if self.nq == 1 else
+                             (kernels.gradients_q1, self.forms.points))  # chosen once
         # the quadrature fields: the law's declared state, and the stored hourglass force
         self._hourglass_law = (material.wave_modulus, *map(float, self.numerics.hourglass), *material.strength)
         self._hourglass_on = self.numerics.hourglass_control  # (asked every step: kept, not re-derived)
@@ -329,9 +331,10 @@ class ExplicitSolver:
         return d_plastic
 
     def _velocity_gradient(self) -> None:
-        """∂v/∂x, v_r/r and r|det J| at the quadrature points of the active cells (compiled)."""
-        kernels.gradients_q1(self.x, self.nodes.v, self.node_dof, self._active_tensor,
-                             self.forms.points, self.q.kin)
+        """∂v/∂x, v_r/r and r|det J| at the quadrature points of the active cells (compiled);
+        one point: their means over the cell's exact volume (the uniform-strain cell)."""
+        gradients, points = self._strain_path
+        gradients(self.x, self.nodes.v, self.node_dof, self._active_tensor, points, self.q.kin)
 
     def _stable_dt(self) -> float:
         """min over cells of the stable Δt of the current configuration (all ranks)."""

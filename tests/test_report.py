@@ -506,7 +506,7 @@ def test_flow_channel_spread_over_windows(flat_bottom):
 def test_outflow_denser_than_placed_is_flagged(flat_bottom, nominal, flagged):
     """A mass leaving of 32 kg/s against ρ0·A·v = 24 kg/s (33 % above: the outlet's solid would
     be a third denser than placed, as on the coarse unstructured ch. 6 meshes, +28 to +38 %) gets
-    a key number that names the mesh and says by how much; 30 kg/s (7 % above, within the 10 %
+    a key number that names the known cause (fixed) and the mesh, and says by how much; 30 kg/s (7 % above, within the 10 %
     that the structured and thesis-density runs stay inside: −7 to +2 %) gets none."""
     from silo_dolfinx.report import Report
 
@@ -521,7 +521,7 @@ def test_outflow_denser_than_placed_is_flagged(flat_bottom, nominal, flagged):
     note = dict(rep.numbers).get("the solid leaves denser than it was placed")
     assert (note is not None) == flagged, note
     if flagged:
-        assert "33 % above ρ0·A·v" in note and "geometry.element_size" in note and "structured" in note
+        assert "33 % above ρ0·A·v" in note and "geometry.element_size" in note and "One-point cells" in note
 
 
 def test_report_fits_janssen_to_a_filled_vertical_wall(tmp_path):

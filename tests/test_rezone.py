@@ -336,8 +336,10 @@ def test_a_mesh_that_follows_the_material_re_meshes_over_and_over_and_says_so(sh
 
     sets = ["geometry.element_size=0.04", 'fill.method="k0"', "store.duration=0.3", "discharge.duration=0.2",
             "output.field_interval=0", "output.points=[]"]
-    summary = run(load_scene(SCENES / "hopper_ch4.toml", sets + ['ale.predictor="current"']), shared_tmp / "current",
-                  comm, progress_every=1e9)
+    # 0.3 s of discharge: the count is a realisation's (every ~15 ms from the first re-mesh: 8-10 in
+    # 0.2 s, which round-off moves across the warning's 10; 15-19 in 0.3 s on 2 ranks, 2026-12-07)
+    current = sets + ['ale.predictor="current"', "discharge.duration=0.3"]
+    summary = run(load_scene(SCENES / "hopper_ch4.toml", current), shared_tmp / "current", comm, progress_every=1e9)
     assert summary["status"] == "completed" and len(summary["stages"][-1]["rezones"]) >= 10
     assert any(w.startswith("[ale] the discharge stage was meshed again") and '"current"' in w for w in summary["warnings"])
     summary = run(load_scene(SCENES / "hopper_ch4.toml", sets), shared_tmp / "previous", comm, progress_every=1e9)

@@ -91,9 +91,6 @@ class ALE:
         cells = np.concatenate([f2c.links(f) for f in outlet]) if len(outlet) else np.zeros(0, np.int32)
         self._outlet_cells = np.unique(cells[cells < no]).astype(np.int64)  # empty on ranks away from it
         self._outlet_points = (self._outlet_cells[:, None] * s.nq + np.arange(s.nq)).ravel()
-        # one-point quadrature's cell volume 2π r_c |det J_c| is not the exact volume of
-        # revolution the remap conserves mass in: densities are converted to and from it
-        self._exact = (np.zeros(self.remapper.n_all), np.zeros((self.remapper.n_all, 2))) if s.nq == 1 else None
         self._top_row = TopRow(model.sm, self.smoother, no)
         self.stats = ALEStats()
         self.tracers = Tracers(self, a.tracer_rows, a.tracer_columns) if a.tracer_rows * a.tracer_columns > 0 else None
@@ -156,8 +153,6 @@ class ALE:
         v = s.v if self._same_numbering else np.ascontiguousarray(s.v[s.node_dof])  # remapped in place
         before = s.mechanical_energy_local(increment=self._dsig)  # and the last step's stress increment
         elastic_density = self._elastic_per_mass()  # J/kg of the outlet cells, for what flows out
-        if self._exact is not None:  # the solver's cell mass ρ V_1pt as a density of the exact volume
-            rho *= self._vol / self.remapper.volumes(xL, self._exact)[:no]
 
         try:
             rep = self.remapper.remap(xL, xS, rho, means, v, bounds=(lo, hi))
@@ -174,8 +169,6 @@ class ALE:
         # write back: mesh, quadrature data, velocity; rebuild what depends on them
         x[:, :2] = xS
         qp_volumes(xS, self.cn_tensor, s.forms.points, s.forms.weights, no, self._dV)
-        if self._exact is not None:  # and back: the density whose one-point cell mass is the remapped mass
-            rho *= self.remapper.volumes(xS, self._exact)[:no] / self._dV
         for j0, a in self._field_arrays():
             redistribute(a, nq, self._dV, means, lo, hi, j0)
         s.rho.reshape(-1, nq)[:] = rho[:, None]

@@ -465,8 +465,7 @@ class Rezoner:
         for j0, a in ale._field_arrays():
             cell_state(a, nq, s.dV, vol, j0, means, lo, hi)
         corners = cell_corners(self.model.sm.mesh)
-        exact = TWO_PI * np.abs([_r_moment(c[:, 0], c[:, 1]) for c in corners])  # (one point: not Σ dV)
-        return gather(s.comm, corners, rho * vol / exact, means, s.v[s.node_dof[s.cell_nodes[:no]]])
+        return gather(s.comm, corners, rho, means, s.v[s.node_dof[s.cell_nodes[:no]]])
 
     def _carry(self, tr: Transfer) -> float:
         """The transferred state into the solver on its new mesh, and its rebuild; returns this
@@ -478,8 +477,7 @@ class Rezoner:
         rho, means = tr.cells()
         dV = np.zeros(no * nq)
         qp_volumes(np.ascontiguousarray(s.x[:, :2]), s.cell_tensor[:no], s.forms.points, s.forms.weights, no, dV)
-        # the density whose quadrature volumes (one point: not the exact volume) hold the mass
-        s.rho.reshape(-1, nq)[:] = (rho * tr.new_volumes / dV.reshape(-1, nq).sum(axis=1))[:, None]
+        s.rho.reshape(-1, nq)[:] = rho[:, None]  # the quadrature volumes are exact: Σ dV = tr.new_volumes
         j0 = 0
         for name, c in [("sig", 4)] + list(s.point_fields.items()):
             a = (s.sig if name == "sig" else s.state[name]).reshape(no, nq, c)

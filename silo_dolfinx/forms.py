@@ -41,7 +41,7 @@ import ufl
 from dolfinx import fem
 
 QUADRATURE_DEGREE = 2  # 2 × 2 Gauss points on Q1 quadrilaterals
-INTEGRATION = {"full": 2, "reduced": 1}  # quadrature degree: 2 × 2 points, or one at the centre
+INTEGRATION = {"full": 2, "reduced": 1}  # quadrature degree: 2 × 2 stress points, or one per cell
 TWO_PI = 2.0 * math.pi
 
 

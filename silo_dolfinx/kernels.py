@@ -280,33 +280,36 @@ def cell_average(values, dV, nq, out):
 
 # ---------------------------------------------------------------------------- the compiled strain path
 @numba.njit(cache=True, fastmath=FAST, inline="always")
-def _point_kinematics(nodes, u, w, xi, eta, g):
-    """g (6,) ← ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J| at reference point (ξ, η)
-    of a Q1 cell: nodes (4, 2) its (r, z) in tensor order, u, w (4,) the nodal v_r, v_z."""
-    r0, r1, r2, r3 = nodes[0, 0], nodes[1, 0], nodes[2, 0], nodes[3, 0]
-    z0, z1, z2, z3 = nodes[0, 1], nodes[1, 1], nodes[2, 1], nodes[3, 1]
+def _point_tangents(nodes, u, w, xi, eta):
+    """At reference point (ξ, η) of a Q1 cell - nodes (4, 2) its (r, z) in tensor order, u, w (4,)
+    the nodal v_r, v_z: (r, v_r, det J, the cofactor products f_ξ z_η − f_η z_ξ (= ∂f/∂r det J) and
+    f_η r_ξ − f_ξ r_η (= ∂f/∂z det J) for f = v_r, then v_z)."""
     # ∂N/∂ξ, ∂N/∂η of the four bilinear shape functions
     a0, a1, a2, a3 = -(1.0 - eta), 1.0 - eta, -eta, eta
     b0, b1, b2, b3 = -(1.0 - xi), -xi, 1.0 - xi, xi
-    r_xi = a0 * r0 + a1 * r1 + a2 * r2 + a3 * r3
-    r_eta = b0 * r0 + b1 * r1 + b2 * r2 + b3 * r3
-    z_xi = a0 * z0 + a1 * z1 + a2 * z2 + a3 * z3
-    z_eta = b0 * z0 + b1 * z1 + b2 * z2 + b3 * z3
-    det = r_xi * z_eta - r_eta * z_xi
-    inv = 1.0 / det
-    # ∂f/∂r = (f_ξ z_η − f_η z_ξ)/det, ∂f/∂z = (f_η r_ξ − f_ξ r_η)/det
+    N0, N1, N2, N3 = (1.0 - xi) * (1.0 - eta), xi * (1.0 - eta), (1.0 - xi) * eta, xi * eta
+    r_xi = a0 * nodes[0, 0] + a1 * nodes[1, 0] + a2 * nodes[2, 0] + a3 * nodes[3, 0]
+    r_eta = b0 * nodes[0, 0] + b1 * nodes[1, 0] + b2 * nodes[2, 0] + b3 * nodes[3, 0]
+    z_xi = a0 * nodes[0, 1] + a1 * nodes[1, 1] + a2 * nodes[2, 1] + a3 * nodes[3, 1]
+    z_eta = b0 * nodes[0, 1] + b1 * nodes[1, 1] + b2 * nodes[2, 1] + b3 * nodes[3, 1]
     u_xi = a0 * u[0] + a1 * u[1] + a2 * u[2] + a3 * u[3]
     u_eta = b0 * u[0] + b1 * u[1] + b2 * u[2] + b3 * u[3]
     w_xi = a0 * w[0] + a1 * w[1] + a2 * w[2] + a3 * w[3]
     w_eta = b0 * w[0] + b1 * w[1] + b2 * w[2] + b3 * w[3]
-    N0, N1 = (1.0 - xi) * (1.0 - eta), xi * (1.0 - eta)
-    N2, N3 = (1.0 - xi) * eta, xi * eta
-    r = N0 * r0 + N1 * r1 + N2 * r2 + N3 * r3
-    g[0] = (u_xi * z_eta - u_eta * z_xi) * inv
-    g[1] = (u_eta * r_xi - u_xi * r_eta) * inv
-    g[2] = (w_xi * z_eta - w_eta * z_xi) * inv
-    g[3] = (w_eta * r_xi - w_xi * r_eta) * inv
-    g[4] = (N0 * u[0] + N1 * u[1] + N2 * u[2] + N3 * u[3]) / r
+    r = N0 * nodes[0, 0] + N1 * nodes[1, 0] + N2 * nodes[2, 0] + N3 * nodes[3, 0]
+    ur = N0 * u[0] + N1 * u[1] + N2 * u[2] + N3 * u[3]
+    return (r, ur, r_xi * z_eta - r_eta * z_xi, u_xi * z_eta - u_eta * z_xi, u_eta * r_xi - u_xi * r_eta,
+            w_xi * z_eta - w_eta * z_xi, w_eta * r_xi - w_xi * r_eta)
+
+
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def _point_kinematics(nodes, u, w, xi, eta, g):
+    """g (6,) ← ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J| at reference point (ξ, η)
+    of a Q1 cell (:func:`_point_tangents`)."""
+    r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(nodes, u, w, xi, eta)
+    inv = 1.0 / det
+    g[0], g[1], g[2], g[3] = ur_r * inv, ur_z * inv, uz_r * inv, uz_z * inv
+    g[4] = ur / r
     g[5] = r * abs(det)
 
 
@@ -358,21 +361,26 @@ def mean_gradients_q1(x, v, node_dof, cn, gauss, kin):
     Lagrangian step in the volume the remap conserves it in, and the pressure resists exactly
     the volume change the mass sees; the internal force σ : ∫ B_a 2πr dA is its work conjugate
     (:mod:`silo_dolfinx.forms`)."""
+    # ∂f/∂r |det J| = ±(f_ξ z_η − f_η z_ξ) and (v_r/r) r |det J| = ±v_r det J: the integrands are
+    # polynomials, summed at the Gauss points without a division (the sign is the cell's orientation)
     nc = cn.shape[0]
     nodes, u, w = np.empty((4, 2)), np.empty(4), np.empty(4)
-    g = np.empty(6)
     for c in range(nc):
         _gather_cell(x, v, node_dof, cn, c, (nodes, u, w))
-        out = kin[c, 0]
-        out[:] = 0.0
+        s0 = s1 = s2 = s3 = s4 = vol = 0.0
         for q in range(gauss.shape[0]):
-            _point_kinematics(nodes, u, w, gauss[q, 0], gauss[q, 1], g)
-            wr = 0.25 * g[5]  # Gauss weight ¼ on [0, 1]² times r|det J|
-            for k in range(5):
-                out[k] += g[k] * wr
-            out[5] += wr
-        for k in range(5):
-            out[k] /= out[5]
+            r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(nodes, u, w, gauss[q, 0], gauss[q, 1])
+            sg = 0.25 if det > 0.0 else -0.25  # Gauss weight ¼ × the sign of det J
+            wr = sg * r
+            s0 += wr * ur_r
+            s1 += wr * ur_z
+            s2 += wr * uz_r
+            s3 += wr * uz_z
+            s4 += sg * ur * det
+            vol += wr * det
+        out = kin[c, 0]
+        inv = 1.0 / vol
+        out[0], out[1], out[2], out[3], out[4], out[5] = s0 * inv, s1 * inv, s2 * inv, s3 * inv, s4 * inv, vol
 
 
 # ---------------------------------------------------------------------------- hourglass control

@@ -325,22 +325,31 @@ def test_a_mesh_re_meshed_over_and_over_is_warned_about():
 
 def test_a_mesh_that_follows_the_material_re_meshes_over_and_over_and_says_so(shared_tmp, comm):
     """The ch. 4 hopper at h 0.04 m from K0 with ale.predictor = "current" (the mesh follows the
-    material) and the scene's rezone_min_quality 0.3: the outlet cells fall below 0.3 within ~20
-    steps of each re-mesh (measured: 29 re-meshes in 0.4 s, 14× the default predictor's wall-clock
-    over 2 s: docs/performance.md), and the run's summary warns, naming the predictor; the
-    default predictor's run of the same problem re-meshes not once."""
+    material) and the scene's rezone_min_quality 0.3: after its first re-mesh the outlet cells
+    fall below 0.3 again within a few remaps, over and over (measured: 29 re-meshes in 0.4 s, 14×
+    the default predictor's wall-clock over 2 s: docs/performance.md) - at least 5 re-meshes in
+    0.3 s of discharge, the median 30 steps (3 remaps) apart or less - and the run's summary warns,
+    naming the predictor, exactly when the warning's thresholds (10 re-meshes, a median of 10
+    remaps apart) are reached; the default predictor's run of the same problem re-meshes not once.
+    How many re-meshes is a realisation's: round-off alone (the same code compiled in another
+    session, or a kernel refactored) gave 5, 15, 18 and 19 in 0.3 s (2026-12-07: in one the outlet
+    cells stopped failing after the fifth), so the count is bounded below, not pinned."""
     from silo_dolfinx.scene import load_scene
-    from silo_dolfinx.simulation import run
+    from silo_dolfinx.simulation import REZONE_WARNING, run
 
     from conftest import SCENES
 
     sets = ["geometry.element_size=0.04", 'fill.method="k0"', "store.duration=0.3", "discharge.duration=0.2",
             "output.field_interval=0", "output.points=[]"]
-    # 0.3 s of discharge: the count is a realisation's (every ~15 ms from the first re-mesh: 8-10 in
-    # 0.2 s, which round-off moves across the warning's 10; 15-19 in 0.3 s on 2 ranks, 2026-12-07)
     current = sets + ['ale.predictor="current"', "discharge.duration=0.3"]
     summary = run(load_scene(SCENES / "hopper_ch4.toml", current), shared_tmp / "current", comm, progress_every=1e9)
-    assert summary["status"] == "completed" and len(summary["stages"][-1]["rezones"]) >= 10
-    assert any(w.startswith("[ale] the discharge stage was meshed again") and '"current"' in w for w in summary["warnings"])
+    steps = [r["step"] for r in summary["stages"][-1]["rezones"]]
+    assert summary["status"] == "completed" and len(steps) >= 5, steps
+    apart = float(np.median(np.diff(steps)))
+    assert apart <= 30, steps
+    warned = any(w.startswith("[ale] the discharge stage was meshed again") and '"current"' in w
+                 for w in summary["warnings"])
+    n_min, remaps = REZONE_WARNING
+    assert warned == (len(steps) >= n_min and apart < remaps * 10), (steps, summary["warnings"])  # ale.frequency 10
     summary = run(load_scene(SCENES / "hopper_ch4.toml", sets), shared_tmp / "previous", comm, progress_every=1e9)
     assert summary["stages"][-1].get("rezones", []) == [] and not any(w.startswith("[ale]") for w in summary["warnings"])

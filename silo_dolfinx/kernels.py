@@ -280,33 +280,34 @@ def cell_average(values, dV, nq, out):
 
 # ---------------------------------------------------------------------------- the compiled strain path
 @numba.njit(cache=True, fastmath=FAST, inline="always")
-def _point_tangents(nodes, u, w, xi, eta):
-    """At reference point (ξ, η) of a Q1 cell - nodes (4, 2) its (r, z) in tensor order, u, w (4,)
-    the nodal v_r, v_z: (r, v_r, det J, the cofactor products f_ξ z_η − f_η z_ξ (= ∂f/∂r det J) and
-    f_η r_ξ − f_ξ r_η (= ∂f/∂z det J) for f = v_r, then v_z)."""
+def _point_tangents(cell, xi, eta):
+    """At reference point (ξ, η) of a Q1 cell - cell = (r, z, v_r, v_z) at its four nodes in
+    tensor order (tuples, :func:`_gather_cell`): (r, v_r, det J, the cofactor products
+    f_ξ z_η − f_η z_ξ (= ∂f/∂r det J) and f_η r_ξ − f_ξ r_η (= ∂f/∂z det J) for f = v_r, then v_z)."""
+    rn, zn, u, w = cell
     # ∂N/∂ξ, ∂N/∂η of the four bilinear shape functions
     a0, a1, a2, a3 = -(1.0 - eta), 1.0 - eta, -eta, eta
     b0, b1, b2, b3 = -(1.0 - xi), -xi, 1.0 - xi, xi
     N0, N1, N2, N3 = (1.0 - xi) * (1.0 - eta), xi * (1.0 - eta), (1.0 - xi) * eta, xi * eta
-    r_xi = a0 * nodes[0, 0] + a1 * nodes[1, 0] + a2 * nodes[2, 0] + a3 * nodes[3, 0]
-    r_eta = b0 * nodes[0, 0] + b1 * nodes[1, 0] + b2 * nodes[2, 0] + b3 * nodes[3, 0]
-    z_xi = a0 * nodes[0, 1] + a1 * nodes[1, 1] + a2 * nodes[2, 1] + a3 * nodes[3, 1]
-    z_eta = b0 * nodes[0, 1] + b1 * nodes[1, 1] + b2 * nodes[2, 1] + b3 * nodes[3, 1]
+    r_xi = a0 * rn[0] + a1 * rn[1] + a2 * rn[2] + a3 * rn[3]
+    r_eta = b0 * rn[0] + b1 * rn[1] + b2 * rn[2] + b3 * rn[3]
+    z_xi = a0 * zn[0] + a1 * zn[1] + a2 * zn[2] + a3 * zn[3]
+    z_eta = b0 * zn[0] + b1 * zn[1] + b2 * zn[2] + b3 * zn[3]
     u_xi = a0 * u[0] + a1 * u[1] + a2 * u[2] + a3 * u[3]
     u_eta = b0 * u[0] + b1 * u[1] + b2 * u[2] + b3 * u[3]
     w_xi = a0 * w[0] + a1 * w[1] + a2 * w[2] + a3 * w[3]
     w_eta = b0 * w[0] + b1 * w[1] + b2 * w[2] + b3 * w[3]
-    r = N0 * nodes[0, 0] + N1 * nodes[1, 0] + N2 * nodes[2, 0] + N3 * nodes[3, 0]
+    r = N0 * rn[0] + N1 * rn[1] + N2 * rn[2] + N3 * rn[3]
     ur = N0 * u[0] + N1 * u[1] + N2 * u[2] + N3 * u[3]
     return (r, ur, r_xi * z_eta - r_eta * z_xi, u_xi * z_eta - u_eta * z_xi, u_eta * r_xi - u_xi * r_eta,
             w_xi * z_eta - w_eta * z_xi, w_eta * r_xi - w_xi * r_eta)
 
 
 @numba.njit(cache=True, fastmath=FAST, inline="always")
-def _point_kinematics(nodes, u, w, xi, eta, g):
+def _point_kinematics(cell, xi, eta, g):
     """g (6,) ← ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J| at reference point (ξ, η)
     of a Q1 cell (:func:`_point_tangents`)."""
-    r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(nodes, u, w, xi, eta)
+    r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(cell, xi, eta)
     inv = 1.0 / det
     g[0], g[1], g[2], g[3] = ur_r * inv, ur_z * inv, uz_r * inv, uz_z * inv
     g[4] = ur / r
@@ -314,14 +315,12 @@ def _point_kinematics(nodes, u, w, xi, eta, g):
 
 
 @numba.njit(cache=True, fastmath=FAST, inline="always")
-def _gather_cell(x, v, node_dof, cn, c, out):
-    """out = (nodes (4, 2), u (4,), w (4,)) ← cell c's node positions and velocities."""
-    nodes, u, w = out
-    for a in range(4):
-        n = cn[c, a]
-        d = node_dof[n]
-        nodes[a, 0], nodes[a, 1] = x[n, 0], x[n, 1]
-        u[a], w[a] = v[d, 0], v[d, 1]
+def _gather_cell(x, v, node_dof, cn, c):
+    """Cell c's (r, z, v_r, v_z) at its four nodes, as tuples (no allocation in the step)."""
+    n0, n1, n2, n3 = cn[c, 0], cn[c, 1], cn[c, 2], cn[c, 3]
+    d0, d1, d2, d3 = node_dof[n0], node_dof[n1], node_dof[n2], node_dof[n3]
+    return ((x[n0, 0], x[n1, 0], x[n2, 0], x[n3, 0]), (x[n0, 1], x[n1, 1], x[n2, 1], x[n3, 1]),
+            (v[d0, 0], v[d1, 0], v[d2, 0], v[d3, 0]), (v[d0, 1], v[d1, 1], v[d2, 1], v[d3, 1]))
 
 
 @numba.njit(cache=True, fastmath=FAST)
@@ -336,11 +335,10 @@ def gradients_q1(x, v, node_dof, cn, points, kin):
     kin (nc, nq, 6) out: ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J|.
     """
     nc, nq = cn.shape[0], points.shape[0]
-    nodes, u, w = np.empty((4, 2)), np.empty(4), np.empty(4)
     for c in range(nc):
-        _gather_cell(x, v, node_dof, cn, c, (nodes, u, w))
+        cell = _gather_cell(x, v, node_dof, cn, c)
         for q in range(nq):
-            _point_kinematics(nodes, u, w, points[q, 0], points[q, 1], kin[c, q])
+            _point_kinematics(cell, points[q, 0], points[q, 1], kin[c, q])
 
 
 @numba.njit(cache=True, fastmath=FAST)
@@ -364,12 +362,11 @@ def mean_gradients_q1(x, v, node_dof, cn, gauss, kin):
     # ∂f/∂r |det J| = ±(f_ξ z_η − f_η z_ξ) and (v_r/r) r |det J| = ±v_r det J: the integrands are
     # polynomials, summed at the Gauss points without a division (the sign is the cell's orientation)
     nc = cn.shape[0]
-    nodes, u, w = np.empty((4, 2)), np.empty(4), np.empty(4)
     for c in range(nc):
-        _gather_cell(x, v, node_dof, cn, c, (nodes, u, w))
+        cell = _gather_cell(x, v, node_dof, cn, c)
         s0 = s1 = s2 = s3 = s4 = vol = 0.0
         for q in range(gauss.shape[0]):
-            r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(nodes, u, w, gauss[q, 0], gauss[q, 1])
+            r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(cell, gauss[q, 0], gauss[q, 1])
             sg = 0.25 if det > 0.0 else -0.25  # Gauss weight ¼ × the sign of det J
             wr = sg * r
             s0 += wr * ur_r

@@ -7,9 +7,10 @@ B-bar strain increment and spin, Jaumann rotation, the Drucker-Prager return (di
 critical state, cohesion: the same law and constants), the density, the bulk viscosity, the
 internal force σ̃ : B 2π r dV at the end configuration scattered to the nodes (with the viscous
 hourglass force at one point) and the cell's stable Δt. The one-point cell is the solver's
-uniform-strain cell: the gradient averaged over the 2 × 2 Gauss points, σ̃ constant on the
-cell. Same mesh, same quadrature, same constants as the solver's step; the wall contact is reduced to a frictionless constraint on the
-same nodes (the solver's contact costs a few per cent of its step: the 'update' phase).
+uniform-strain cell: the gradient's mean over the cell's exact volume and the force's integrals
+in the solver's closed form (kernels.uniform_strain_vectors), σ̃ constant on the cell. Same mesh,
+same quadrature, same constants as the solver's step; the wall contact is reduced to a
+frictionless constraint on the same nodes (the solver's contact costs a few per cent of its step: the 'update' phase).
 
 Used by ``benchmarks/step_cost.py`` (``ours / floor``); checked there against the solver: the
 same stable Δt and the same stress after a few steps from the same geostatic state.
@@ -21,6 +22,8 @@ import math
 
 import numba
 import numpy as np
+
+from silo_dolfinx.kernels import uniform_strain_vectors
 
 FAST = {"contract", "arcp", "reassoc", "nsz", "afn"}
 TWO_PI = 2.0 * math.pi
@@ -80,7 +83,7 @@ def step(arrays, law, dt):
             ri[a], zi[a] = x[nd, 0] + 0.5 * dt * ui[a], x[nd, 1] + 0.5 * dt * wi[a]  # mid-step
         vol = 0.0
         trs = 0.0
-        for q in range(nq):
+        for q in range(nq if ns > 1 else 0):
             N0, N1, N2, N3, a0, a1, a2, a3, c0, c1, c2, c3 = _shape(points, q)
             r_x, r_e, z_x, z_e, det = _jacobian((a0, a1, a2, a3), (c0, c1, c2, c3), ri, zi)
             inv = 1.0 / det
@@ -97,14 +100,18 @@ def step(arrays, law, dt):
             g[q, 5] = TWO_PI * r * abs(det) * wq[q]
             vol += g[q, 5]
             trs += (g[q, 0] + g[q, 3] + g[q, 4]) * g[q, 5]
+        if ns == 1:  # one point: the gradient's mean over the cell's exact volume, in closed form
+            br, bz, h = uniform_strain_vectors((ri[0], ri[1], ri[2], ri[3]), (zi[0], zi[1], zi[2], zi[3]))
+            v1 = h[0] * ri[0] + h[1] * ri[1] + h[2] * ri[2] + h[3] * ri[3]
+            inv = 1.0 / v1
+            g[0, 0] = (br[0] * ui[0] + br[1] * ui[1] + br[2] * ui[2] + br[3] * ui[3]) * inv
+            g[0, 1] = (bz[0] * ui[0] + bz[1] * ui[1] + bz[2] * ui[2] + bz[3] * ui[3]) * inv
+            g[0, 2] = (br[0] * wi[0] + br[1] * wi[1] + br[2] * wi[2] + br[3] * wi[3]) * inv
+            g[0, 3] = (bz[0] * wi[0] + bz[1] * wi[1] + bz[2] * wi[2] + bz[3] * wi[3]) * inv
+            g[0, 4] = (h[0] * ui[0] + h[1] * ui[1] + h[2] * ui[2] + h[3] * ui[3]) * inv
+            g[0, 5] = vol = TWO_PI * abs(v1)
+            trs = (g[0, 0] + g[0, 3] + g[0, 4]) * vol
         tr_avg = trs / vol
-        if ns == 1:  # one point: the gradient's mean over the cell's exact volume
-            for k in range(5):
-                s_k = 0.0
-                for q in range(nq):
-                    s_k += g[q, k] * g[q, 5]
-                g[0, k] = s_k / vol
-            g[0, 5] = vol
         mbar = 0.0
         rho_c = 0.0
         for q in range(ns):  # strain, rotation, return map, density
@@ -162,8 +169,18 @@ def step(arrays, law, dt):
         s_bv = b1 * rho_c * cd * L * tr_avg
         if tr_avg < 0.0:
             s_bv -= rho_c * (b2 * L * tr_avg) ** 2
-        for q in range(nq):  # internal force at the end configuration (σ̃ constant on a one-point cell)
-            i = c * ns + (q if ns > 1 else 0)
+        if ns == 1:  # internal force at the end configuration: σ̃ constant on the cell, its integrals closed
+            br, bz, h = uniform_strain_vectors((ri[0], ri[1], ri[2], ri[3]), (zi[0], zi[1], zi[2], zi[3]))
+            sg = TWO_PI if h[0] + h[1] + h[2] + h[3] > 0.0 else -TWO_PI  # the vectors are signed by orientation
+            i = c
+            p_use = mbar - (sig[i, 0] + sig[i, 1] + sig[i, 2]) / 3.0 + s_bv
+            srr, szz, stt, srz = sig[i, 0] + p_use, sig[i, 1] + p_use, sig[i, 2] + p_use, sig[i, 3]
+            for a in range(4):
+                nd = cells[c, a]
+                f[nd, 0] += sg * (srr * br[a] + stt * h[a] + srz * bz[a])
+                f[nd, 1] += sg * (szz * bz[a] + srz * br[a])
+        for q in range(nq if ns > 1 else 0):  # internal force at the end configuration, at the points
+            i = c * ns + q
             N0, N1, N2, N3, a0, a1, a2, a3, c0, c1, c2, c3 = _shape(points, q)
             r_x, r_e, z_x, z_e, det = _jacobian((a0, a1, a2, a3), (c0, c1, c2, c3), ri, zi)
             inv = 1.0 / det
@@ -224,16 +241,6 @@ def from_solver(solver) -> tuple:
     law = tuple(map(float, (m.K, m.G, m.tan_beta, m.tan_psi, m.cohesion, m.eqps_critical,
                             *s.numerics.bulk_viscosity, s.numerics.hourglass[1])))
     arrays = (x, s.v.copy(), s.minv.copy(), f_ext, s.f_int.copy(), axis, wall_n, cells,
-              *_integration_points(s), s.sig.copy(),
+              np.ascontiguousarray(s.forms.points), s.forms.weights, s.sig.copy(),
               s.state["eqps"].copy(), s.rho.copy())
     return arrays, law
-
-
-def _integration_points(solver) -> tuple[np.ndarray, np.ndarray]:
-    """The points (and weights) the cell integrals run over: the solver's 2 × 2, or for its
-    one-point (uniform-strain) cell the 2 × 2 Gauss points its means are integrated at."""
-    from silo_dolfinx.kernels import GAUSS_2X2
-
-    if solver.nq == 1:
-        return np.ascontiguousarray(GAUSS_2X2), np.full(4, 0.25)
-    return np.ascontiguousarray(solver.forms.points), np.ascontiguousarray(solver.forms.weights)

@@ -193,22 +193,18 @@ def dt_length(x, cell_nodes, c, o, hoop):
     """Characteristic length L of cell c for the stable Δt (nodes in boundary-cycle order,
     o its orientation ±1): the smallest altitude a/e_max, with the hoop stiffness near the
     axis, 1/L² = e_max²/a² + hoop/r_c²; 0 if the cell has collapsed, inverted or turned a
-    corner inside out (a non-convex quadrilateral)."""
-    a = 0.0
-    e2max = 0.0
-    rc = 0.0
-    convex = True
-    for k in range(4):
-        n0 = cell_nodes[c, (k + 3) % 4]
-        n1 = cell_nodes[c, k]
-        n2 = cell_nodes[c, (k + 1) % 4]
-        x0, z0, x1, z1 = x[n1, 0], x[n1, 1], x[n2, 0], x[n2, 1]
-        a += x0 * z1 - x1 * z0
-        e2max = max(e2max, (x1 - x0) ** 2 + (z1 - z0) ** 2)
-        rc += 0.25 * x0
-        if o * ((x0 - x[n0, 0]) * (z1 - z0) - (z0 - x[n0, 1]) * (x1 - x0)) < 0.0:
-            convex = False
-    a = 0.5 * a * o
+    corner inside out (a non-convex quadrilateral: a turn between consecutive edges against
+    the orientation)."""
+    n0, n1, n2, n3 = cell_nodes[c, 0], cell_nodes[c, 1], cell_nodes[c, 2], cell_nodes[c, 3]
+    r0, r1, r2, r3 = x[n0, 0], x[n1, 0], x[n2, 0], x[n3, 0]
+    z0, z1, z2, z3 = x[n0, 1], x[n1, 1], x[n2, 1], x[n3, 1]
+    e0r, e0z, e1r, e1z = r1 - r0, z1 - z0, r2 - r1, z2 - z1  # the edges 0 → 1 → 2 → 3 → 0
+    e2r, e2z, e3r, e3z = r3 - r2, z3 - z2, r0 - r3, z0 - z3
+    convex = (o * (e3r * e0z - e3z * e0r) >= 0.0 and o * (e0r * e1z - e0z * e1r) >= 0.0
+              and o * (e1r * e2z - e1z * e2r) >= 0.0 and o * (e2r * e3z - e2z * e3r) >= 0.0)
+    a = 0.5 * o * ((r0 - r2) * (z1 - z3) - (r1 - r3) * (z0 - z2))  # half the diagonals' cross product
+    e2max = max(max(e0r * e0r + e0z * e0z, e1r * e1r + e1z * e1z), max(e2r * e2r + e2z * e2z, e3r * e3r + e3z * e3z))
+    rc = 0.25 * (r0 + r1 + r2 + r3)
     if not (a > 0.0 and rc > 0.0 and convex):
         return 0.0
     return 1.0 / math.sqrt(e2max / (a * a) + hoop / (rc * rc))
@@ -341,14 +337,58 @@ def gradients_q1(x, v, node_dof, cn, points, kin):
             _point_kinematics(cell, points[q, 0], points[q, 1], kin[c, q])
 
 
+@numba.njit(cache=True, fastmath=FAST, inline="always")
+def uniform_strain_vectors(rn, zn):
+    """The uniform-strain cell's integrals in closed form, for a Q1 cell with corners rn, zn (4-tuples,
+    tensor order): B^r_a = ∫ r ∂N_a/∂r dA, B^z_a = ∫ r ∂N_a/∂z dA and H_a = ∫ N_a dA over the cell
+    (4-tuples each), signed by the cell's orientation (positive when ξ → η turns counter-clockwise
+    in (r, z)). Then ∫ f dA = Σ H_a f_a for any Q1 field f (the volume over 2π is Σ H_a r_a) and
+    ∫ r ∇f dA = Σ (B^r_a, B^z_a) f_a.
+
+    Derivation (Flanagan & Belytschko 1981 do the plane case the same way): det J of a bilinear
+    map is linear in (ξ, η), so it equals its Q1 interpolant through the corner values D_a (twice
+    the corner triangles' areas) and H_a = Σ_b M_ab D_b with M the Q1 mass matrix of the unit
+    square (1/9, 1/18 on an edge, 1/36 across). By Green's theorem ∫ r ∂N_a/∂z dA = −∮ r N_a dr
+    and ∫ r ∂N_a/∂r dA = ∮ r N_a dz − ∫ N_a dA, and on a straight edge i → j, where r and N_a are
+    linear, ∫ r N_i = (2 r_i + r_j)/6 and ∫ r N_j = (r_i + 2 r_j)/6 per unit of dr or dz. About a
+    third of the arithmetic of the same integrals at the 2 × 2 Gauss points, and no division."""
+    r0, r1, r2, r3 = rn
+    z0, z1, z2, z3 = zn
+    # the boundary cycle 0 → 1 → 3 → 2 → 0
+    dr01, dz01 = r1 - r0, z1 - z0
+    dr13, dz13 = r3 - r1, z3 - z1
+    dr32, dz32 = r2 - r3, z2 - z3
+    dr20, dz20 = r0 - r2, z0 - z2
+    D0 = dr20 * dz01 - dr01 * dz20
+    D1 = dr01 * dz13 - dr13 * dz01
+    D2 = dr32 * dz20 - dr20 * dz32
+    D3 = dr13 * dz32 - dr32 * dz13
+    m = 1.0 / 36.0
+    H0 = (4.0 * D0 + 2.0 * (D1 + D2) + D3) * m
+    H1 = (4.0 * D1 + 2.0 * (D0 + D3) + D2) * m
+    H2 = (4.0 * D2 + 2.0 * (D0 + D3) + D1) * m
+    H3 = (4.0 * D3 + 2.0 * (D1 + D2) + D0) * m
+    a01, b01 = 2.0 * r0 + r1, r0 + 2.0 * r1  # 6 ∫ r N_i, 6 ∫ r N_j on each edge i → j
+    a13, b13 = 2.0 * r1 + r3, r1 + 2.0 * r3
+    a32, b32 = 2.0 * r3 + r2, r3 + 2.0 * r2
+    a20, b20 = 2.0 * r2 + r0, r2 + 2.0 * r0
+    s = 1.0 / 6.0
+    br = ((a01 * dz01 + b20 * dz20) * s - H0, (a13 * dz13 + b01 * dz01) * s - H1,
+          (a20 * dz20 + b32 * dz32) * s - H2, (a32 * dz32 + b13 * dz13) * s - H3)
+    bz = (-(a01 * dr01 + b20 * dr20) * s, -(a13 * dr13 + b01 * dr01) * s,
+          -(a20 * dr20 + b32 * dr32) * s, -(a32 * dr32 + b13 * dr13) * s)
+    return br, bz, (H0, H1, H2, H3)
+
+
 @numba.njit(cache=True, fastmath=FAST)
-def mean_gradients_q1(x, v, node_dof, cn, gauss, kin):
+def mean_gradients_q1(x, v, node_dof, cn, points, kin):
     """The one-point cell of ``numerics.integration = "reduced"``: the **uniform strain** of
     Flanagan & Belytschko (1981) (Abaqus' CAX4R) - the velocity gradient and v_r/r averaged over
-    the cell's exact volume of revolution, (1/V)∫ (·) 2πr dA, integrated exactly at the 2 × 2
-    Gauss points ``gauss`` (:data:`GAUSS_2X2`) - and that volume itself: kin (nc, 1, 6) out as
+    the cell's exact volume of revolution, (1/V)∫ (·) 2πr dA, in closed form
+    (:func:`uniform_strain_vectors`) - and that volume itself: kin (nc, 1, 6) out as
     :func:`gradients_q1`, with kin[c, 0, 5] = ∫ r dA (so the point's volume 2π·kin[..., 5]·w,
-    w = 1, is the cell's exact volume).
+    w = 1, is the cell's exact volume). ``points`` is not read (the closed form needs none); the
+    signature is :func:`gradients_q1`'s, so the solver calls either strain path alike.
 
     Why not the gradient at the centre: its trace is the rate of the one-point volume 2π r_c A,
     not of the cell's volume, which the ALE remap moves mass by. On a cell near the axis that is
@@ -359,25 +399,18 @@ def mean_gradients_q1(x, v, node_dof, cn, gauss, kin):
     Lagrangian step in the volume the remap conserves it in, and the pressure resists exactly
     the volume change the mass sees; the internal force σ : ∫ B_a 2πr dA is its work conjugate
     (:mod:`silo_dolfinx.forms`)."""
-    # ∂f/∂r |det J| = ±(f_ξ z_η − f_η z_ξ) and (v_r/r) r |det J| = ±v_r det J: the integrands are
-    # polynomials, summed at the Gauss points without a division (the sign is the cell's orientation)
-    nc = cn.shape[0]
-    for c in range(nc):
-        cell = _gather_cell(x, v, node_dof, cn, c)
-        s0 = s1 = s2 = s3 = s4 = vol = 0.0
-        for q in range(gauss.shape[0]):
-            r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(cell, gauss[q, 0], gauss[q, 1])
-            sg = 0.25 if det > 0.0 else -0.25  # Gauss weight ¼ × the sign of det J
-            wr = sg * r
-            s0 += wr * ur_r
-            s1 += wr * ur_z
-            s2 += wr * uz_r
-            s3 += wr * uz_z
-            s4 += sg * ur * det
-            vol += wr * det
-        out = kin[c, 0]
+    for c in range(cn.shape[0]):
+        rn, zn, u, w = _gather_cell(x, v, node_dof, cn, c)
+        br, bz, h = uniform_strain_vectors(rn, zn)
+        vol = h[0] * rn[0] + h[1] * rn[1] + h[2] * rn[2] + h[3] * rn[3]  # signed as the vectors: the ratios are not
         inv = 1.0 / vol
-        out[0], out[1], out[2], out[3], out[4], out[5] = s0 * inv, s1 * inv, s2 * inv, s3 * inv, s4 * inv, vol
+        out = kin[c, 0]
+        out[0] = (br[0] * u[0] + br[1] * u[1] + br[2] * u[2] + br[3] * u[3]) * inv
+        out[1] = (bz[0] * u[0] + bz[1] * u[1] + bz[2] * u[2] + bz[3] * u[3]) * inv
+        out[2] = (br[0] * w[0] + br[1] * w[1] + br[2] * w[2] + br[3] * w[3]) * inv
+        out[3] = (bz[0] * w[0] + bz[1] * w[1] + bz[2] * w[2] + bz[3] * w[3]) * inv
+        out[4] = (h[0] * u[0] + h[1] * u[1] + h[2] * u[2] + h[3] * u[3]) * inv
+        out[5] = abs(vol)
 
 
 # ---------------------------------------------------------------------------- hourglass control
@@ -467,12 +500,13 @@ def hourglass_update(x, v, node_dof, cn, cell, law, dt, forces):
         g0, g1, g2, g3, area, bb, rc = _hourglass_shape(x, cn, c)
         d0, d1, d2, d3 = _cell_dofs(node_dof, cn, c)
         ring = TWO_PI * rc
+        shear = area * math.sqrt(0.5 * bb) * ring  # what a shear stress on the mode becomes a force by
         cs = ks * modulus * area * bb * 0.5 * ring
-        cv = kv * rho_cell[c] * math.sqrt(modulus / rho_cell[c]) * area * math.sqrt(0.5 * bb) * ring
+        cv = kv * math.sqrt(modulus * rho_cell[c]) * shear  # κ_v ρ c_d A √(b·b/2) 2π r_c
         cap = 1e300
         if tanb >= 0.0:
             p = -(sig[c, 0] + sig[c, 1] + sig[c, 2]) / 3.0
-            cap = max(p * tanb + d, 0.0) * area * math.sqrt(0.5 * bb) * ring
+            cap = max(p * tanb + d, 0.0) * shear
         for i in range(2):
             qd = g0 * v[d0, i] + g1 * v[d1, i] + g2 * v[d2, i] + g3 * v[d3, i]
             qs_new[c, i] = min(max(qs_old[c, i] + cs * qd * dt, -cap), cap)

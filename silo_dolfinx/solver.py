@@ -125,8 +125,8 @@ class ExplicitSolver:
         imap = self.V.dofmap.index_map
         self.n_owned, self.n_nodes = imap.size_local, imap.size_local + imap.num_ghosts
         self.nq = self.forms.nq
-        self._strain_path = ((kernels.mean_gradients_q1, kernels.GAUSS_2X2) if self.nq == 1 else
-                             (kernels.gradients_q1, self.forms.points))  # chosen once
+        self._strain_path = (kernels.mean_gradients_q1 if self.nq == 1 else kernels.gradients_q1,
+                             self.forms.points)  # chosen once
         # the quadrature fields: the law's declared state, and the stored hourglass force
         self._hourglass_law = (material.wave_modulus, *map(float, self.numerics.hourglass), *material.strength)
         self._hourglass_on = self.numerics.hourglass_control  # (asked every step: kept, not re-derived)

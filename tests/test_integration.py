@@ -57,14 +57,14 @@ def test_the_compiled_strain_path_equals_the_ufl_expression(comm, integration):
     node_dof = np.empty(msh.geometry.x.shape[0], np.int64)
     node_dof[gdm.ravel()] = forms.V.dofmap.list.ravel()
     ours = np.zeros_like(ref)
-    kernel, points = ((kernels.mean_gradients_q1, kernels.GAUSS_2X2) if integration == "reduced" else
-                      (kernels.gradients_q1, forms.points))
-    kernel(msh.geometry.x, full.velocity.x.array.reshape(-1, 2), node_dof, gdm[cells], points, ours)
+    kernel = kernels.mean_gradients_q1 if integration == "reduced" else kernels.gradients_q1
+    kernel(msh.geometry.x, full.velocity.x.array.reshape(-1, 2), node_dof, gdm[cells], forms.points, ours)
     assert forms.nq == (4 if integration == "full" else 1)
     assert np.abs(ours - ref).max() <= 1e-12 * np.abs(ref).max()
 
 
-def test_one_point_cell_volume_changes_at_the_rate_the_density_update_uses():
+@pytest.mark.parametrize("order", [(0, 1, 2, 3), (1, 0, 3, 2)], ids=["counter-clockwise", "clockwise"])
+def test_one_point_cell_volume_changes_at_the_rate_the_density_update_uses(order):
     """The one-point (uniform-strain) cell's volume is its exact volume of revolution - 2π × the
     polygon's first moment (1/6) Σ (r_i + r_j)(r_i z_j − r_j z_i), a closed form independent of
     the Gauss points - and over a step of straight-line motion it changes as exp of the mid-step
@@ -73,14 +73,16 @@ def test_one_point_cell_volume_changes_at_the_rate_the_density_update_uses():
     used before, does not: on this cell (a trapezoid at r ~ 1; these velocities have hourglass
     parts) its trace is 53 % below the volume's rate (2e-5 in the ratio over the step) - the
     mismatch that compacted the solid over an outlet (docs/validation/ch6.md). Distorted cell,
-    arbitrary nodal velocities, Δt·|∇v| = 1e-3: agreement to 1e-8; the centre off by > 1e-6."""
-    r = np.array([1.0, 1.5, 0.9, 1.7])
-    z = np.array([0.0, 0.1, 0.6, 0.8])
-    vel = np.array([[0.3, -0.4], [-0.2, 0.2], [0.5, 0.1], [0.1, 0.6]])
+    arbitrary nodal velocities, Δt·|∇v| = 1e-3: agreement to 1e-8; the centre off by > 1e-6.
+    The same cell with its nodes listed in the other sense (ξ → η clockwise; the closed form's
+    integrals are signed by the orientation) gives the same volume and rate."""
+    r = np.array([1.0, 1.5, 0.9, 1.7])[list(order)]
+    z = np.array([0.0, 0.1, 0.6, 0.8])[list(order)]
+    vel = np.array([[0.3, -0.4], [-0.2, 0.2], [0.5, 0.1], [0.1, 0.6]])[list(order)]
     dt = 1e-3
     nd, cn = np.arange(4), np.arange(4).reshape(1, 4)
 
-    def kin(h, kernel=kernels.mean_gradients_q1, points=kernels.GAUSS_2X2):
+    def kin(h, kernel=kernels.mean_gradients_q1, points=np.array([[0.5, 0.5]])):
         x = np.zeros((4, 3))
         x[:, 0], x[:, 1] = r + h * vel[:, 0], z + h * vel[:, 1]
         out = np.zeros((1, 1, 6))

@@ -20,7 +20,7 @@ from silo_dolfinx import kernels
 # cells), the 2-rank parallel efficiency measured there, the ALE's share of the discharge step at
 # smoothing frequency 10 (ibid., "What ALE costs": 24-33 %; it scales with 10/frequency) and the
 # outputs' (histories at 200 Hz, "Outputs at the history rate": ~5 %)
-STEP_US = {"full": 0.27, "reduced": 0.19}
+STEP_US = {"full": 0.27, "reduced": 0.17}
 EFFICIENCY = 0.9
 # ms per step whatever the mesh (the Python of the step, its kernel and assembly calls; on more
 # than one rank also the ghost exchanges and the Δt reduction): fitted to the README's first scene

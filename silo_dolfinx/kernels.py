@@ -34,16 +34,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from silo_dolfinx._jit_cache import numba
 
 
 TWO_PI = 2.0 * math.pi
-
-#: The 2 × 2 Gauss points on the reference square [0, 1]² (weight ¼ each): exact for every
-#: integral of a Q1 cell's kinematics and volume of revolution (degree ≤ 3 in each direction).
-GAUSS_2X2 = 0.5 + (0.5 / math.sqrt(3.0)) * np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]])
 
 # Hoop-stiffness correction of the characteristic length near the axis: 1/L² += HOOP / r_c².
 # Calibrated by bisection on the scale at which undamped runs blow up

@@ -16,7 +16,7 @@ import numpy as np
 
 from silo_dolfinx._jit_cache import numba
 from silo_dolfinx._compat import geometry_dofmap
-from silo_dolfinx.kernels import FAST, GAUSS_2X2
+from silo_dolfinx.kernels import FAST, uniform_strain_vectors
 
 CYCLE = np.array([0, 1, 3, 2])
 TWO_PI = 2.0 * math.pi
@@ -121,28 +121,25 @@ def qp_volumes(x, cn_tensor, points, weights, n_cells, out):
     """Quadrature volumes 2π r |det J| w_q of the first ``n_cells`` Q1 cells at positions
     ``x`` (the solver's dV layout: cell-major, basix point order). One point is the uniform-
     strain cell (:func:`silo_dolfinx.kernels.mean_gradients_q1`): its volume is the cell's exact
-    volume of revolution (2 × 2 Gauss points), not 2π r_c |det J_c|."""
+    volume of revolution, in the same closed form (:func:`silo_dolfinx.kernels.uniform_strain_vectors`),
+    not 2π r_c |det J_c|."""
     nq = points.shape[0]
-    one = nq == 1
-    pts = GAUSS_2X2.copy() if one else points
-    wts = np.full(4, 0.25) if one else weights
     for c in range(n_cells):
         a, b, cc, d = cn_tensor[c, 0], cn_tensor[c, 1], cn_tensor[c, 2], cn_tensor[c, 3]
-        if one:
-            out[c] = 0.0
-        for q in range(pts.shape[0]):
-            xi, eta = pts[q, 0], pts[q, 1]
+        if nq == 1:
+            rn = (x[a, 0], x[b, 0], x[cc, 0], x[d, 0])
+            _, _, h = uniform_strain_vectors(rn, (x[a, 1], x[b, 1], x[cc, 1], x[d, 1]))
+            out[c] = TWO_PI * abs(h[0] * rn[0] + h[1] * rn[1] + h[2] * rn[2] + h[3] * rn[3])
+            continue
+        for q in range(nq):
+            xi, eta = points[q, 0], points[q, 1]
             r = ((1.0 - xi) * (1.0 - eta) * x[a, 0] + xi * (1.0 - eta) * x[b, 0] + (1.0 - xi) * eta * x[cc, 0]
                  + xi * eta * x[d, 0])
             dr_dxi = (1.0 - eta) * (x[b, 0] - x[a, 0]) + eta * (x[d, 0] - x[cc, 0])
             dz_dxi = (1.0 - eta) * (x[b, 1] - x[a, 1]) + eta * (x[d, 1] - x[cc, 1])
             dr_deta = (1.0 - xi) * (x[cc, 0] - x[a, 0]) + xi * (x[d, 0] - x[b, 0])
             dz_deta = (1.0 - xi) * (x[cc, 1] - x[a, 1]) + xi * (x[d, 1] - x[b, 1])
-            dv = TWO_PI * r * abs(dr_dxi * dz_deta - dr_deta * dz_dxi) * wts[q]
-            if one:
-                out[c] += dv
-            else:
-                out[c * nq + q] = dv
+            out[c * nq + q] = TWO_PI * r * abs(dr_dxi * dz_deta - dr_deta * dz_dxi) * weights[q]
 
 
 # ---------------------------------------------------------------------------- sections of a snapshot

@@ -22,6 +22,7 @@
 #     mpirun -n 2 python demos/flat_bottom_ch6.py                  # the thesis' 14,000 cells, 100 s
 #     ... --element-size 0.014 --discharge 100 --reuse             # other meshes, lengths; measure only
 #     ... --quick --outlet-factor 0.25                              # four cells across the outlet's radius
+#     ... --quick --discharge 100 --outlet-radius 0.03              # the pace of the thesis' text (~10 min)
 #     ... --quick --outlet-mesh 0.5 0.25 0.125 0.0625               # the outlet's mesh study (~45 min)
 #     ... --quick --outlet-mesh 0.5 0.25 0.125 --mesh unstructured  # the same without needles (~8 min)
 #     ... --model drucker_prager --integration full                 # flat_bottom_ch6.toml as shipped (arches)
@@ -60,6 +61,8 @@ ap.add_argument("--outlet-factor", type=float,
                 help="geometry.outlet_size_factor: the element size at the outlet edge over h (default: the "
                      "scene's, 0.5 with --quick - two cells across the outlet's radius at h 0.02 m)")
 ap.add_argument("--integration", choices=("full", "reduced"), help="numerics.integration (default: the scene's)")
+ap.add_argument("--outlet-radius", type=float,
+                help="geometry.outlet_radius (m); default the scene's 0.02 - 0.03 flows at the pace of the thesis' text")
 ap.add_argument("--mesh", choices=("structured", "unstructured"),
                 help="geometry.mesh (default: the scene's, structured: its outlet column of cells runs the silo's "
                      "height, so a refined outlet makes needles up the axis; unstructured refines around the outlet)")
@@ -91,6 +94,8 @@ if args.integration:
     overrides.append(f'numerics.integration="{args.integration}"')
 if args.mesh:
     overrides.append(f'geometry.mesh="{args.mesh}"')
+if args.outlet_radius:
+    overrides.append(f"geometry.outlet_radius={args.outlet_radius}")
 # the outlet (radius 0.02 m) keeps the thesis' two cells across its radius with --quick: with
 # one, an arch of one cell spans it and the flow stops within 2 s (h 0.02, measured: 0.02 kg in 20 s)
 QUICK_OUTLET = 0.5 if args.quick else None
@@ -103,6 +108,7 @@ def folder(outlet_factor: float | None) -> Path:
                               + (f"_h{h:g}" if args.element_size else "")
                               + (f"_outlet{outlet_factor:g}" if outlet_factor != QUICK_OUTLET else "")
                               + (f"_{args.discharge:g}s" if args.discharge else "")
+                              + (f"_R{args.outlet_radius:g}" if args.outlet_radius else "")
                               + "".join(f"_{v}" for v in (args.cone, args.model, args.integration, args.mesh) if v))
 
 
@@ -290,6 +296,7 @@ def outlet_mesh_study(factors) -> None:
         return
     name = Path("results") / ("flat_bottom_ch6" + ("_quick" if args.quick else "") + "_outlet_mesh"
                               + (f"_{args.discharge:g}s" if args.discharge else "")
+                              + (f"_R{args.outlet_radius:g}" if args.outlet_radius else "")
                               + "".join(f"_{v}" for v in (args.model, args.integration, args.mesh) if v))
     name.mkdir(parents=True, exist_ok=True)
     table = "\n".join(rows + ["", f"Beverloo {curves[0][-1]:.3f} kg/s (C 0.58, d 0); the thesis' text: 10 % of the "

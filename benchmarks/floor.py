@@ -10,7 +10,8 @@ hourglass force at one point) and the cell's stable Δt. The one-point cell is t
 uniform-strain cell: the gradient's mean over the cell's exact volume and the force's integrals
 in the solver's closed form (kernels.uniform_strain_vectors), σ̃ constant on the cell. Same mesh,
 same quadrature, same constants as the solver's step; the wall contact is reduced to a
-frictionless constraint on the same nodes (the solver's contact costs a few per cent of its step: the 'update' phase).
+frictionless constraint on the same nodes (the solver's contact costs a few per cent of its
+step: the 'update' phase).
 
 Used by ``benchmarks/step_cost.py`` (``ours / floor``); checked there against the solver: the
 same stable Δt and the same stress after a few steps from the same geostatic state.

@@ -102,8 +102,7 @@ def step(arrays, law, dt):
             vol += g[q, 5]
             trs += (g[q, 0] + g[q, 3] + g[q, 4]) * g[q, 5]
         if ns == 1:  # one point: the gradient's mean over the cell's exact volume, in closed form
-            br, bz, h = uniform_strain_vectors((ri[0], ri[1], ri[2], ri[3]), (zi[0], zi[1], zi[2], zi[3]))
-            v1 = h[0] * ri[0] + h[1] * ri[1] + h[2] * ri[2] + h[3] * ri[3]
+            br, bz, h, v1 = uniform_strain_vectors((ri[0], ri[1], ri[2], ri[3]), (zi[0], zi[1], zi[2], zi[3]))
             inv = 1.0 / v1
             g[0, 0] = (br[0] * ui[0] + br[1] * ui[1] + br[2] * ui[2] + br[3] * ui[3]) * inv
             g[0, 1] = (bz[0] * ui[0] + bz[1] * ui[1] + bz[2] * ui[2] + bz[3] * ui[3]) * inv
@@ -171,8 +170,8 @@ def step(arrays, law, dt):
         if tr_avg < 0.0:
             s_bv -= rho_c * (b2 * L * tr_avg) ** 2
         if ns == 1:  # internal force at the end configuration: σ̃ constant on the cell, its integrals closed
-            br, bz, h = uniform_strain_vectors((ri[0], ri[1], ri[2], ri[3]), (zi[0], zi[1], zi[2], zi[3]))
-            sg = TWO_PI if h[0] + h[1] + h[2] + h[3] > 0.0 else -TWO_PI  # the vectors are signed by orientation
+            br, bz, h, v1 = uniform_strain_vectors((ri[0], ri[1], ri[2], ri[3]), (zi[0], zi[1], zi[2], zi[3]))
+            sg = TWO_PI if v1 > 0.0 else -TWO_PI  # the vectors are signed by the orientation
             i = c
             p_use = mbar - (sig[i, 0] + sig[i, 1] + sig[i, 2]) / 3.0 + s_bv
             srr, szz, stt, srz = sig[i, 0] + p_use, sig[i, 1] + p_use, sig[i, 2] + p_use, sig[i, 3]

@@ -270,10 +270,10 @@ def cell_average(values, dV, nq, out):
 
 # ---------------------------------------------------------------------------- the compiled strain path
 @numba.njit(cache=True, fastmath=FAST, inline="always")
-def _point_tangents(cell, xi, eta):
-    """At reference point (ξ, η) of a Q1 cell - cell = (r, z, v_r, v_z) at its four nodes in
-    tensor order (tuples, :func:`_gather_cell`): (r, v_r, det J, the cofactor products
-    f_ξ z_η − f_η z_ξ (= ∂f/∂r det J) and f_η r_ξ − f_ξ r_η (= ∂f/∂z det J) for f = v_r, then v_z)."""
+def _point_kinematics(cell, xi, eta, g):
+    """g (6,) ← ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J| at reference point (ξ, η)
+    of a Q1 cell - cell = (r, z, v_r, v_z) at its four nodes in tensor order (tuples,
+    :func:`_gather_cell`)."""
     rn, zn, u, w = cell
     # ∂N/∂ξ, ∂N/∂η of the four bilinear shape functions
     a0, a1, a2, a3 = -(1.0 - eta), 1.0 - eta, -eta, eta
@@ -288,19 +288,14 @@ def _point_tangents(cell, xi, eta):
     w_xi = a0 * w[0] + a1 * w[1] + a2 * w[2] + a3 * w[3]
     w_eta = b0 * w[0] + b1 * w[1] + b2 * w[2] + b3 * w[3]
     r = N0 * rn[0] + N1 * rn[1] + N2 * rn[2] + N3 * rn[3]
-    ur = N0 * u[0] + N1 * u[1] + N2 * u[2] + N3 * u[3]
-    return (r, ur, r_xi * z_eta - r_eta * z_xi, u_xi * z_eta - u_eta * z_xi, u_eta * r_xi - u_xi * r_eta,
-            w_xi * z_eta - w_eta * z_xi, w_eta * r_xi - w_xi * r_eta)
-
-
-@numba.njit(cache=True, fastmath=FAST, inline="always")
-def _point_kinematics(cell, xi, eta, g):
-    """g (6,) ← ∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r, r·|det J| at reference point (ξ, η)
-    of a Q1 cell (:func:`_point_tangents`)."""
-    r, ur, det, ur_r, ur_z, uz_r, uz_z = _point_tangents(cell, xi, eta)
+    det = r_xi * z_eta - r_eta * z_xi
     inv = 1.0 / det
-    g[0], g[1], g[2], g[3] = ur_r * inv, ur_z * inv, uz_r * inv, uz_z * inv
-    g[4] = ur / r
+    # ∂f/∂r = (f_ξ z_η − f_η z_ξ)/det, ∂f/∂z = (f_η r_ξ − f_ξ r_η)/det
+    g[0] = (u_xi * z_eta - u_eta * z_xi) * inv
+    g[1] = (u_eta * r_xi - u_xi * r_eta) * inv
+    g[2] = (w_xi * z_eta - w_eta * z_xi) * inv
+    g[3] = (w_eta * r_xi - w_xi * r_eta) * inv
+    g[4] = (N0 * u[0] + N1 * u[1] + N2 * u[2] + N3 * u[3]) / r
     g[5] = r * abs(det)
 
 
@@ -335,9 +330,9 @@ def gradients_q1(x, v, node_dof, cn, points, kin):
 def uniform_strain_vectors(rn, zn):
     """The uniform-strain cell's integrals in closed form, for a Q1 cell with corners rn, zn (4-tuples,
     tensor order): B^r_a = ∫ r ∂N_a/∂r dA, B^z_a = ∫ r ∂N_a/∂z dA and H_a = ∫ N_a dA over the cell
-    (4-tuples each), signed by the cell's orientation (positive when ξ → η turns counter-clockwise
-    in (r, z)). Then ∫ f dA = Σ H_a f_a for any Q1 field f (the volume over 2π is Σ H_a r_a) and
-    ∫ r ∇f dA = Σ (B^r_a, B^z_a) f_a.
+    (4-tuples each), and ∫ r dA = Σ H_a r_a (the volume over 2π), all signed by the cell's
+    orientation (positive when ξ → η turns counter-clockwise in (r, z)). Then ∫ f dA = Σ H_a f_a
+    for any Q1 field f and ∫ r ∇f dA = Σ (B^r_a, B^z_a) f_a.
 
     Derivation (Flanagan & Belytschko 1981 do the plane case the same way): det J of a bilinear
     map is linear in (ξ, η), so it equals its Q1 interpolant through the corner values D_a (twice
@@ -371,7 +366,7 @@ def uniform_strain_vectors(rn, zn):
           (a20 * dz20 + b32 * dz32) * s - H2, (a32 * dz32 + b13 * dz13) * s - H3)
     bz = (-(a01 * dr01 + b20 * dr20) * s, -(a13 * dr13 + b01 * dr01) * s,
           -(a20 * dr20 + b32 * dr32) * s, -(a32 * dr32 + b13 * dr13) * s)
-    return br, bz, (H0, H1, H2, H3)
+    return br, bz, (H0, H1, H2, H3), H0 * r0 + H1 * r1 + H2 * r2 + H3 * r3
 
 
 @numba.njit(cache=True, fastmath=FAST)
@@ -395,8 +390,7 @@ def mean_gradients_q1(x, v, node_dof, cn, points, kin):
     (:mod:`silo_dolfinx.forms`)."""
     for c in range(cn.shape[0]):
         rn, zn, u, w = _gather_cell(x, v, node_dof, cn, c)
-        br, bz, h = uniform_strain_vectors(rn, zn)
-        vol = h[0] * rn[0] + h[1] * rn[1] + h[2] * rn[2] + h[3] * rn[3]  # signed as the vectors: the ratios are not
+        br, bz, h, vol = uniform_strain_vectors(rn, zn)  # signed alike: the ratios are not
         inv = 1.0 / vol
         out = kin[c, 0]
         out[0] = (br[0] * u[0] + br[1] * u[1] + br[2] * u[2] + br[3] * u[3]) * inv

@@ -127,9 +127,9 @@ def qp_volumes(x, cn_tensor, points, weights, n_cells, out):
     for c in range(n_cells):
         a, b, cc, d = cn_tensor[c, 0], cn_tensor[c, 1], cn_tensor[c, 2], cn_tensor[c, 3]
         if nq == 1:
-            rn = (x[a, 0], x[b, 0], x[cc, 0], x[d, 0])
-            _, _, h = uniform_strain_vectors(rn, (x[a, 1], x[b, 1], x[cc, 1], x[d, 1]))
-            out[c] = TWO_PI * abs(h[0] * rn[0] + h[1] * rn[1] + h[2] * rn[2] + h[3] * rn[3])
+            _, _, _, v = uniform_strain_vectors((x[a, 0], x[b, 0], x[cc, 0], x[d, 0]),
+                                                (x[a, 1], x[b, 1], x[cc, 1], x[d, 1]))
+            out[c] = TWO_PI * abs(v)
             continue
         for q in range(nq):
             xi, eta = points[q, 0], points[q, 1]
